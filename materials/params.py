@@ -1,0 +1,60 @@
+"""Parameter tables: every procedural parameter has a name, a default and a range."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Param:
+    """One scalar procedural parameter.
+
+    Attributes:
+        name: identifier, unique within a material class.
+        default: value used when none is given.
+        low, high: the valid, inclusive range; perturbation stays inside it.
+        doc: one line for the generated documentation.
+        kind: "float", "int" (rounded when used) or "srgb" (a colour channel an artist thinks of in sRGB,
+            decoded to linear once by the class with colour-science).
+    """
+
+    name: str
+    default: float
+    low: float
+    high: float
+    doc: str = ""
+    kind: str = "float"
+
+    def __post_init__(self):
+        if not (self.low <= self.default <= self.high):
+            raise ValueError(f"param {self.name}: default {self.default} outside [{self.low}, {self.high}]")
+        if self.kind not in ("float", "int", "srgb"):
+            raise ValueError(f"param {self.name}: unknown kind {self.kind!r}")
+
+    def with_(self, **kw) -> "Param":
+        d = {**self.__dict__, **kw}
+        return Param(**d)
+
+
+@dataclass(frozen=True)
+class ParamTable:
+    """An ordered table of parameters."""
+
+    params: tuple[Param, ...] = field(default_factory=tuple)
+
+    def __iter__(self):
+        return iter(self.params)
+
+    def __len__(self):
+        return len(self.params)
+
+    def names(self) -> list[str]:
+        return [p.name for p in self.params]
+
+    def __getitem__(self, name: str) -> Param:
+        for p in self.params:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    def defaults(self) -> dict[str, float]:
+        return {p.name: float(p.default) for p in self.params}
