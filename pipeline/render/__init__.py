@@ -1,0 +1,8 @@
+"""The render core of ``svgen render``: the GGX BSDF plugin, view sampling and map transforms, the flash scene.
+
+Modules:
+    bsdf: the DESIGN.md Cook-Torrance/GGX BRDF as a Mitsuba 3 Python BSDF ("svgen_ggx").
+    views: per-view random parameters and the numpy transform of base maps into a view.
+    scene: the capture scene, loaded once, re-rendered per view through ``mi.traverse``.
+    reference: an independent numpy evaluation of the scene (tests, benchmarks).
+"""

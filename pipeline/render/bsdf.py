@@ -1,0 +1,271 @@
+"""The DESIGN.md Cook-Torrance/GGX BRDF as a Mitsuba 3 BSDF written in Python (drjit), name ``svgen_ggx``.
+
+Model (alpha = r**2, clamped to ``ALPHA_MIN``; every vector in the shading frame of the texel's normal):
+
+    D = a^2 / (pi (NH^2 (a^2 - 1) + 1)^2)
+    G = G1(NL) G1(NV),  G1(x) = x / (x (1 - k) + k),  k = a / 2
+    F = s + (1 - s) 2^((-5.55473 VH - 6.98316) VH)
+    f = d (1 - s) / pi + D F G / (4 NL NV)
+
+The specular term is evaluated as ``D F / (4 (NL(1-k)+k) (NV(1-k)+k))``: algebraically identical (the NL NV of
+G cancel the 1/(4 NL NV)), but its denominator is >= k^2 > 0, so nothing divides by a cosine that reaches 0.
+
+Textures: the four maps live in ONE flat float buffer, 12 floats per texel
+``[nx ny nz | dr dg db | sr sg sb | r 0 0]`` (see :func:`pack_maps`), looked up with nearest filtering from the
+surface uv: column ``floor(u W)``, numpy row ``floor((1 - v) H)`` -- a Mitsuba ``rectangle`` has v = 0 at its
+bottom edge (y = -1), while numpy row 0 is the image top. One gather of three Vector3f per lookup is far cheaper
+than four bitmap textures, and the buffer is exposed to ``mi.traverse`` as ``maps`` so a loaded scene takes new
+maps without recompiling its kernel (the buffer is a kernel input, not a literal).
+
+Normal map: a texel's normal n (tangent space: x right, y up, z out) is expressed in the surface's local frame,
+which for the plane of the capture scene is (s, t, n) = (+x, +y, +z) = (image right, image up, to the camera).
+The BRDF is evaluated in ``Frame3f(n)``; the returned value includes the cosine ``max(n . wo, 0)``, the cosine
+of DESIGN.md's shading. Directions below the geometric surface are rejected as well (a plane cannot be lit
+from behind), so the BSDF is zero unless both the geometric and the mapped cosines are positive.
+
+Sampling: a mixture of GGX visible-normal sampling (Heitz 2018) and cosine sampling, with the specular
+probability from the texel's albedos (see :meth:`GGXBSDF._spec_prob`); pdf() is the exact mixture density.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..mi_env import load_mitsuba
+
+mi = load_mitsuba()
+import drjit as dr  # noqa: E402  (after load_mitsuba: drjit must see the libLLVM path first)
+
+PLUGIN_NAME = "svgen_ggx"
+#: floats per texel in the packed map buffer.
+TEXEL_FLOATS = 12
+#: smallest alpha: r = 0.01. Keeps D (peak 1/(pi a^2) ~ 3e7) finite in float32 and the VNDF sampler stable.
+ALPHA_MIN = 1e-4
+#: smallest probability of choosing the specular lobe (it is never exactly zero: F -> 1 at grazing angles).
+SPEC_PROB_MIN = 0.1
+_INV_PI = 1.0 / np.pi
+
+
+def pack_maps(normal: np.ndarray, diffuse: np.ndarray, specular: np.ndarray, roughness: np.ndarray) -> np.ndarray:
+    """Interleave maps into the plugin's flat texel buffer.
+
+    Args:
+        normal: (H, W, 3) unit tangent-space normals.
+        diffuse: (H, W, 3) linear albedo.
+        specular: (H, W, 3) linear F0.
+        roughness: (H, W, 1) perceptual roughness.
+
+    Returns:
+        (H * W * 12,) float32, row-major with numpy row 0 = image top.
+    """
+    h, w = normal.shape[:2]
+    buf = np.zeros((h, w, TEXEL_FLOATS), np.float32)
+    buf[..., 0:3] = normal
+    buf[..., 3:6] = diffuse
+    buf[..., 6:9] = specular
+    buf[..., 9:10] = roughness
+    return buf.reshape(-1)
+
+
+def _schlick_sg(s, vh):
+    """Spherical-Gaussian Schlick Fresnel, s: Color3f (F0), vh: Float."""
+    return s + (1.0 - s) * dr.exp2((-5.55473 * vh - 6.98316) * vh)
+
+
+def _ggx_d(nh, a2):
+    """GGX normal distribution; nh: cos(n, h), a2: alpha^2."""
+    # 1 - nh^2 written as (1 - nh)(1 + nh): less cancellation near the peak, where it matters most.
+    t = dr.fma(nh * nh, a2, (1.0 - nh) * (1.0 + nh))
+    return a2 * _INV_PI / dr.maximum(t * t, 1e-30)
+
+
+def _smith_g1_exact(v, a2):
+    """Exact Smith G1 of GGX (the shadowing of the VNDF sampler, not the BRDF's Schlick-Smith G)."""
+    z2 = dr.maximum(v.z * v.z, 1e-12)
+    tan2 = dr.maximum(1.0 - z2, 0.0) / z2
+    return 2.0 / (1.0 + dr.sqrt(1.0 + a2 * tan2))
+
+
+def _sample_vndf(wi, alpha, u):
+    """Heitz 2018 visible-normal sample of isotropic GGX; wi: Vector3f (z > 0), u: Point2f -> microfacet normal."""
+    vh = dr.normalize(mi.Vector3f(alpha * wi.x, alpha * wi.y, wi.z))
+    lensq = vh.x * vh.x + vh.y * vh.y
+    inv = dr.rsqrt(dr.maximum(lensq, 1e-20))
+    t1v = dr.select(lensq > 1e-20, mi.Vector3f(-vh.y * inv, vh.x * inv, 0.0), mi.Vector3f(1.0, 0.0, 0.0))
+    t2v = dr.cross(vh, t1v)
+    r = dr.sqrt(u.x)
+    sin_phi, cos_phi = dr.sincos(2.0 * dr.pi * u.y)
+    t1 = r * cos_phi
+    t2 = r * sin_phi
+    s = 0.5 * (1.0 + vh.z)
+    t2 = (1.0 - s) * dr.safe_sqrt(1.0 - t1 * t1) + s * t2
+    nh = t1 * t1v + t2 * t2v + dr.safe_sqrt(1.0 - t1 * t1 - t2 * t2) * vh
+    return dr.normalize(mi.Vector3f(alpha * nh.x, alpha * nh.y, dr.maximum(nh.z, 1e-6)))
+
+
+class GGXBSDF(mi.BSDF):
+    """Spatially varying DESIGN.md GGX BRDF with a per-texel normal map.
+
+    Plugin properties (all optional; constant maps are for tests and chi2):
+        width, height (int): texture resolution (default 1 x 1); the texel grid spans uv [0, 1]^2.
+        diffuse, specular (float or 3-vector): constant initial albedo / F0 (defaults 0.5, 0.04).
+        roughness (float): constant perceptual roughness (default 0.5).
+        normal (3-vector): constant tangent-space normal (default (0, 0, 1)); renormalised.
+
+    Traversable parameter:
+        maps (Float, H*W*12): the packed texel buffer of :func:`pack_maps`; replace it through
+        ``mi.traverse(scene)`` with a buffer of the same resolution.
+    """
+
+    def __init__(self, props):
+        mi.BSDF.__init__(self, props)
+        self.width = int(props.get("width", 1))
+        self.height = int(props.get("height", 1))
+
+        def rgb(name, default):
+            v = props.get(name, default)
+            return np.broadcast_to(np.asarray(v, np.float32).reshape(-1), (3,))
+
+        n = np.asarray(props.get("normal", [0.0, 0.0, 1.0]), np.float64)
+        n = (n / np.linalg.norm(n)).astype(np.float32)
+        hw = (self.height, self.width)
+        self.maps = mi.Float(
+            pack_maps(
+                np.broadcast_to(n, hw + (3,)),
+                np.broadcast_to(rgb("diffuse", 0.5), hw + (3,)),
+                np.broadcast_to(rgb("specular", 0.04), hw + (3,)),
+                np.full(hw + (1,), float(props.get("roughness", 0.5)), np.float32),
+            )
+        )
+        flags = (
+            mi.BSDFFlags.DiffuseReflection
+            | mi.BSDFFlags.GlossyReflection
+            | mi.BSDFFlags.FrontSide
+            | mi.BSDFFlags.SpatiallyVarying
+        )
+        self.m_flags = flags
+        self.m_components = [mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide | mi.BSDFFlags.SpatiallyVarying,
+                             mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide | mi.BSDFFlags.SpatiallyVarying]
+
+    # ---- parameters -------------------------------------------------------------------------------------------
+    def traverse(self, callback):
+        callback.put("maps", self.maps, mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys=[]):
+        expected = self.width * self.height * TEXEL_FLOATS
+        if dr.width(self.maps) != expected:
+            raise ValueError(f"svgen_ggx: maps buffer has {dr.width(self.maps)} floats, expected {expected} "
+                             f"({self.height}x{self.width} texels x {TEXEL_FLOATS})")
+
+    def to_string(self):
+        return f"GGXBSDF[{self.height}x{self.width}]"
+
+    # ---- texture lookup ---------------------------------------------------------------------------------------
+    def _texel(self, si, active):
+        """Nearest-texel lookup -> (normal Vector3f, diffuse Color3f, specular Color3f, alpha Float)."""
+        col = mi.UInt32(dr.clip(mi.Int32(dr.floor(si.uv.x * self.width)), 0, self.width - 1))
+        row = mi.UInt32(dr.clip(mi.Int32(dr.floor((1.0 - si.uv.y) * self.height)), 0, self.height - 1))
+        base = (row * self.width + col) * 4  # Vector3f-sized slots: 12 floats = 4 slots per texel
+        n = dr.gather(mi.Vector3f, self.maps, base, active)
+        d = dr.gather(mi.Color3f, self.maps, base + 1, active)
+        s = dr.gather(mi.Color3f, self.maps, base + 2, active)
+        r = dr.gather(mi.Vector3f, self.maps, base + 3, active).x
+        n = dr.normalize(mi.Vector3f(n.x, n.y, dr.maximum(n.z, 1e-4)))
+        alpha = dr.maximum(r * r, ALPHA_MIN)
+        return n, d, s, alpha
+
+    @staticmethod
+    def _spec_prob(nv, d, s):
+        """Probability of sampling the GGX lobe: its share of an albedo estimate (Fresnel at the view angle)."""
+        ws = dr.mean(_schlick_sg(s, nv))
+        wd = dr.mean(d * (1.0 - s))
+        return dr.clip(ws / dr.maximum(ws + wd, 1e-8), SPEC_PROB_MIN, 1.0)
+
+    # ---- the model --------------------------------------------------------------------------------------------
+    @staticmethod
+    def _brdf_cos(wi, wo, d, s, alpha):
+        """f * cos(wo) in the normal-map frame (wi, wo local to it); 0 where either cosine is <= 0."""
+        nv, nl = wi.z, wo.z
+        h = dr.normalize(wi + wo)
+        nh = dr.maximum(h.z, 0.0)
+        vh = dr.maximum(dr.dot(wi, h), 0.0)
+        a2 = alpha * alpha
+        k = 0.5 * alpha
+        D = _ggx_d(nh, a2)
+        F = _schlick_sg(s, vh)
+        # D F G / (4 NL NV) with G's NL NV cancelled: denominator >= k^2 > 0.
+        spec = D * F / (4.0 * dr.fma(nl, 1.0 - k, k) * dr.fma(nv, 1.0 - k, k))
+        f = d * (1.0 - s) * _INV_PI + spec
+        ok = (nv > 0.0) & (nl > 0.0)
+        return dr.select(ok, f * nl, 0.0)
+
+    @staticmethod
+    def _pdf_local(wi, wo, alpha, p_spec):
+        """Mixture pdf (solid angle) of wo given wi, both local to the normal-map frame."""
+        a2 = alpha * alpha
+        h = dr.normalize(wi + wo)
+        nh = dr.maximum(h.z, 0.0)
+        # VNDF: p(m) = G1(wi) max(0, wi.m) D(m) / wi.z; Jacobian of reflection 1/(4 wo.m), and wo.m = wi.m.
+        p_s = _smith_g1_exact(wi, a2) * _ggx_d(nh, a2) / (4.0 * dr.maximum(wi.z, 1e-8))
+        p_d = dr.maximum(wo.z, 0.0) * _INV_PI
+        ok = (wi.z > 0.0) & (wo.z > 0.0)
+        return dr.select(ok, p_spec * p_s + (1.0 - p_spec) * p_d, 0.0)
+
+    def _setup(self, si, wo, active):
+        n, d, s, alpha = self._texel(si, active)
+        frame = mi.Frame3f(n)
+        wi_n = frame.to_local(si.wi)
+        wo_n = frame.to_local(wo)
+        geometric = (si.wi.z > 0.0) & (wo.z > 0.0)
+        return wi_n, wo_n, d, s, alpha, geometric
+
+    def eval(self, ctx, si, wo, active=True):
+        wi_n, wo_n, d, s, alpha, geometric = self._setup(si, wo, active)
+        value = self._brdf_cos(wi_n, wo_n, d, s, alpha)
+        return dr.select(active & geometric, value, 0.0)
+
+    def pdf(self, ctx, si, wo, active=True):
+        wi_n, wo_n, d, s, alpha, geometric = self._setup(si, wo, active)
+        p = self._pdf_local(wi_n, wo_n, alpha, self._spec_prob(wi_n.z, d, s))
+        return dr.select(active & geometric, p, 0.0)
+
+    def eval_pdf(self, ctx, si, wo, active=True):
+        wi_n, wo_n, d, s, alpha, geometric = self._setup(si, wo, active)
+        ok = active & geometric
+        value = self._brdf_cos(wi_n, wo_n, d, s, alpha)
+        p = self._pdf_local(wi_n, wo_n, alpha, self._spec_prob(wi_n.z, d, s))
+        return dr.select(ok, value, 0.0), dr.select(ok, p, 0.0)
+
+    def sample(self, ctx, si, sample1, sample2, active=True):
+        n, d, s, alpha = self._texel(si, active)
+        frame = mi.Frame3f(n)
+        wi_n = frame.to_local(si.wi)
+        p_spec = self._spec_prob(wi_n.z, d, s)
+        pick_spec = sample1 < p_spec
+
+        m = _sample_vndf(wi_n, alpha, sample2)
+        wo_spec = mi.reflect(wi_n, m)  # mi.reflect(v, m) = 2 (v.m) m - v
+        wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
+        wo_n = dr.select(pick_spec, wo_spec, wo_diff)
+        wo = frame.to_world(wo_n)
+
+        value = self._brdf_cos(wi_n, wo_n, d, s, alpha)
+        p = self._pdf_local(wi_n, wo_n, alpha, p_spec)
+        ok = active & (si.wi.z > 0.0) & (wi_n.z > 0.0) & (wo.z > 0.0) & (wo_n.z > 0.0) & (p > 0.0)
+
+        bs = dr.zeros(mi.BSDFSample3f)
+        bs.wo = wo
+        bs.pdf = dr.select(ok, p, 0.0)
+        bs.eta = 1.0
+        bs.sampled_type = mi.UInt32(dr.select(pick_spec, int(mi.BSDFFlags.GlossyReflection),
+                                              int(mi.BSDFFlags.DiffuseReflection)))
+        bs.sampled_component = dr.select(pick_spec, mi.UInt32(1), mi.UInt32(0))
+        weight = dr.select(ok, value / dr.maximum(p, 1e-20), 0.0)
+        return bs, weight
+
+
+def register() -> None:
+    """Register the plugin under :data:`PLUGIN_NAME` (idempotent; mitsuba keeps the last registration)."""
+    mi.register_bsdf(PLUGIN_NAME, lambda props: GGXBSDF(props))
+
+
+register()

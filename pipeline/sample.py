@@ -1,0 +1,136 @@
+"""`svgen sample`: perturbed variants of every base material, written to a variants store.
+
+Perturbation (documented distribution): variant 0 of each preset is the
+preset's defaults; variant k >= 1 draws every exposed parameter independently
+from Normal(default, sigma * (high - low)) truncated to [low, high] (int
+parameters are rounded afterwards). The variant's generator seed and its
+perturbation come from one derived seed, derive_seed(master, "sample",
+crc32(preset name), k): a variant does not change when other presets are
+added or removed.
+"""
+from __future__ import annotations
+
+import functools
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import truncnorm
+
+import materials
+
+from .config import SampleConfig, as_dict
+from .errors import ConfigError
+from .log import get_logger
+from .parallel import run_chunks
+from .seeds import derive_seed
+from .store import ArraySpec, StoreWriter, write_chunk
+from .svbrdf_store import encode_maps, map_specs
+
+log = get_logger(__name__)
+
+
+@dataclass(frozen=True)
+class VariantSpec:
+    """One variant to make: preset, index within the preset, derived seed."""
+
+    preset: str
+    k: int
+    seed: int
+
+
+def select_presets(cfg: SampleConfig) -> list[materials.Preset]:
+    """The presets a config asks for (all by default), sorted by name. Unknown names raise UnknownMaterial."""
+    for c in cfg.classes:
+        materials.get_class(c)
+    chosen = [materials.get_preset(n) for n in cfg.presets] if cfg.presets else materials.presets()
+    if cfg.classes:
+        chosen = [p for p in chosen if p.cls in cfg.classes]
+    if not chosen:
+        raise ConfigError("no preset matches the --preset/--class selection")
+    return sorted({p.name: p for p in chosen}.values(), key=lambda p: p.name)
+
+
+def plan(cfg: SampleConfig) -> list[VariantSpec]:
+    """Every variant of the stage, in store order (preset by preset)."""
+    out = []
+    for p in select_presets(cfg):
+        key = zlib.crc32(p.name.encode())
+        out += [VariantSpec(p.name, k, derive_seed(cfg.seed, "sample", key, k)) for k in range(cfg.per_preset)]
+    return out
+
+
+def perturb(preset: materials.Preset, k: int, sigma: float, rng: np.random.Generator) -> dict[str, float]:
+    """Parameters of variant ``k``: defaults for k == 0, else truncated-normal draws around them.
+
+    Returns:
+        exposed parameter name -> value (inside the preset's range).
+    """
+    out = {}
+    for p in preset.exposed:
+        if k == 0 or p.high == p.low:
+            v = p.default
+        else:
+            scale = sigma * (p.high - p.low)
+            a, b = (p.low - p.default) / scale, (p.high - p.default) / scale
+            v = float(truncnorm.rvs(a, b, loc=p.default, scale=scale, random_state=rng))
+        if p.kind == "int":
+            v = float(np.clip(np.round(v), p.low, p.high))
+        out[p.name] = float(np.clip(v, p.low, p.high))
+    return out
+
+
+def make_variant(spec: VariantSpec, sigma: float, size: int) -> tuple[materials.SVBRDF, dict[str, float]]:
+    """Maps and parameters of one variant: a pure function of (spec, sigma, size) and the code."""
+    preset = materials.get_preset(spec.preset)
+    rng = np.random.default_rng(spec.seed)
+    params = perturb(preset, spec.k, sigma, rng)
+    gen_seed = int(rng.integers(0, 2**63 - 1))
+    return preset.generate(params, size, gen_seed), params
+
+
+def _chunk_task(c: int, threads: int, *, partial: str, specs: list[VariantSpec], chunk: int, sigma: float, size: int,
+                preset_index: dict[str, int], max_params: int) -> int:
+    """Worker: make the variants of chunk ``c`` and write them (one whole chunk)."""
+    start, stop = c * chunk, min(len(specs), (c + 1) * chunk)
+    n = stop - start
+    maps = {k: [] for k in materials.MAP_NAMES}
+    params = np.full((n, max_params), np.nan, np.float32)
+    for j, spec in enumerate(specs[start:stop]):
+        m, pv = make_variant(spec, sigma, size)
+        for k, v in encode_maps(m.validate()).items():
+            maps[k].append(v)
+        params[j, :len(pv)] = list(pv.values())
+    data = {k: np.stack(v) for k, v in maps.items()}
+    data["params"] = params
+    data["seed"] = np.array([s.seed for s in specs[start:stop]], np.uint64)
+    data["preset"] = np.array([[preset_index[s.preset], -1] for s in specs[start:stop]], np.int32)
+    write_chunk(partial, c, start, data)
+    return n
+
+
+def run_sample(out, cfg: SampleConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
+    """Write the variants store of ``cfg`` to ``out`` (resuming an interrupted run). Returns the path."""
+    materials.registry.check_size(cfg.size)
+    specs = plan(cfg)
+    chosen = select_presets(cfg)
+    names = [p.name for p in chosen]
+    max_params = max(len(p.exposed) for p in chosen)
+    arrays = {**map_specs(cfg.size),
+              "params": ArraySpec((max_params,), "float32", "exposed parameters in table order, NaN-padded"),
+              "seed": ArraySpec((), "uint64", "derived variant seed"),
+              "preset": ArraySpec((2,), "int32", "index into attrs.presets; second column -1")}
+    attrs = {"presets": names,
+             "param_names": {p.name: p.exposed.names() for p in chosen},
+             "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]"}
+    with StoreWriter(out, "variants", len(specs), cfg.chunk, arrays, as_dict(cfg), attrs) as w:
+        todo = w.pending()
+        task = functools.partial(_chunk_task, partial=str(w.partial), specs=specs, chunk=cfg.chunk, sigma=cfg.sigma,
+                                 size=cfg.size, preset_index={n: i for i, n in enumerate(names)},
+                                 max_params=max_params)
+        done = w.done_samples()
+        if done:
+            log.info("resuming %s: %d of %d variants already written", out, done, len(specs))
+        run_chunks(task, todo, workers=workers, scheduler_address=scheduler_address, desc="sample", unit="variant",
+                   total_units=len(specs), done_units=done)
+        return str(w.finalize())
