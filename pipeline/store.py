@@ -131,12 +131,16 @@ class StoreWriter:
         if self.final.exists():  # finished by another run while we waited for the lock
             self.__exit__()
             raise StoreError(f"output {self.final} already exists; choose another path or delete it")
-        self.partial.mkdir(exist_ok=True)
-        if (self.partial / "zarr.json").exists():
-            self._check_resumable()
-        else:
-            self._create()
-        (self.partial / DONE_DIR).mkdir(exist_ok=True)
+        try:
+            self.partial.mkdir(exist_ok=True)
+            if (self.partial / "zarr.json").exists():
+                self._check_resumable()
+            else:
+                self._create()
+            (self.partial / DONE_DIR).mkdir(exist_ok=True)
+        except BaseException:
+            self.__exit__()
+            raise
         return self
 
     def __exit__(self, *exc) -> None:

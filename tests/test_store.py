@@ -1,0 +1,94 @@
+"""The store life cycle: temp name, chunk markers, resume, lock, refusal of foreign/partial/corrupt stores."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import zarr
+
+from pipeline.errors import StoreError
+from pipeline.store import ArraySpec, StoreWriter, open_store, partial_path, read_region, write_chunk
+
+ARRAYS = {"x": ArraySpec((4, 4, 3), "uint16", "test"), "seed": ArraySpec((), "uint64")}
+
+
+def _fill(w: StoreWriter, chunks=None):
+    for c in (w.pending() if chunks is None else chunks):
+        a, b = w.chunk_range(c)
+        write_chunk(w.partial, c, a, {"x": np.full((b - a, 4, 4, 3), c + 1, np.uint16),
+                                       "seed": np.arange(a, b, dtype=np.uint64)})
+
+
+def test_complete_store_round_trip(tmp_path):
+    out = tmp_path / "s.zarr"
+    with StoreWriter(out, "variants", 10, 4, ARRAYS, {"a": 1}) as w:
+        assert w.n_chunks == 3 and w.pending() == [0, 1, 2]
+        _fill(w)
+        w.finalize({"extra": 7})
+    assert not partial_path(out).exists() and not (tmp_path / "s.zarr.lock").exists()
+    g = open_store(out, "variants")
+    assert g.attrs["svgen"]["complete"] is True and g.attrs["extra"] == 7 and g.attrs["config"] == {"a": 1}
+    assert read_region(g, "x", 8, 10)[:, 0, 0, 0].tolist() == [3, 3]
+    assert g["seed"][:].tolist() == list(range(10))
+    with pytest.raises(StoreError, match="is a variants store, expected a renders"):
+        open_store(out, "renders")
+
+
+def test_existing_output_is_refused_and_untouched(tmp_path):
+    out = tmp_path / "s.zarr"
+    out.mkdir()
+    (out / "precious.txt").write_text("keep")
+    with pytest.raises(StoreError, match="already exists"):
+        StoreWriter(out, "variants", 4, 4, ARRAYS, {})
+    assert (out / "precious.txt").read_text() == "keep"
+
+
+def test_interrupted_store_reads_incomplete_and_resumes_only_missing_chunks(tmp_path):
+    out = tmp_path / "s.zarr"
+    with StoreWriter(out, "variants", 10, 4, ARRAYS, {"a": 1}) as w:
+        _fill(w, [1])  # a "killed" run: one chunk written, no finalize
+    with pytest.raises(StoreError, match="incomplete"):
+        open_store(out, "variants")
+    with pytest.raises(StoreError, match="different configuration"):
+        with StoreWriter(out, "variants", 10, 4, ARRAYS, {"a": 2}):
+            pass
+    with StoreWriter(out, "variants", 10, 4, ARRAYS, {"a": 1}) as w:
+        assert w.pending() == [0, 2] and w.done_samples() == 4
+        _fill(w)
+        w.finalize()
+    assert open_store(out, "variants")["x"][:, 0, 0, 0].tolist() == [1] * 4 + [2] * 4 + [3] * 2
+
+
+def test_second_writer_is_refused_while_first_holds_the_lock(tmp_path):
+    out = tmp_path / "s.zarr"
+    with StoreWriter(out, "variants", 4, 4, ARRAYS, {}):
+        with pytest.raises(StoreError, match="another run is writing"):
+            with StoreWriter(out, "variants", 4, 4, ARRAYS, {}):
+                pass
+
+
+def test_foreign_and_missing_stores_are_named(tmp_path):
+    with pytest.raises(StoreError, match="no store"):
+        open_store(tmp_path / "nope.zarr", "variants")
+    (tmp_path / "dir").mkdir()
+    with pytest.raises(StoreError, match="not a zarr v3 store"):
+        open_store(tmp_path / "dir", "variants")
+    g = zarr.open_group(tmp_path / "foreign.zarr", mode="w", zarr_format=3)
+    g.create_array("x", shape=(2,), dtype="f4")
+    zarr.consolidate_metadata(tmp_path / "foreign.zarr")
+    with pytest.raises(StoreError, match="not an svgen store"):
+        open_store(tmp_path / "foreign.zarr", "variants")
+
+
+def test_corrupted_chunk_is_detected_and_named(tmp_path):
+    out = tmp_path / "s.zarr"
+    with StoreWriter(out, "variants", 8, 4, ARRAYS, {}) as w:
+        _fill(w)
+        w.finalize()
+    chunk_file = out / "x" / "c" / "1" / "0" / "0" / "0"
+    b = bytearray(chunk_file.read_bytes())
+    b[len(b) // 2] ^= 0xFF
+    chunk_file.write_bytes(bytes(b))
+    g = open_store(out, "variants")
+    assert read_region(g, "x", 0, 4)[0, 0, 0, 0] == 1  # the intact chunk still reads
+    with pytest.raises(StoreError, match=r"chunk 1"):
+        read_region(g, "x", 4, 8)
