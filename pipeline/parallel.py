@@ -6,6 +6,7 @@ not depend on the number of workers or on where they run.
 """
 from __future__ import annotations
 
+import logging
 import os
 from contextlib import contextmanager
 from typing import Callable, Iterable
@@ -51,9 +52,10 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
         return
     if workers < 1:
         raise ConfigError(f"--workers must be >= 1 for a local cluster, got {workers}")
-    with dask.config.set({"distributed.worker.daemon": False, "logging.distributed": "error"}):
+    # daemon=False: worker processes may start their own pools (drjit threads, torch loaders)
+    with dask.config.set({"distributed.worker.daemon": False}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs="error")
+                               silence_logs=logging.ERROR)
         try:
             with Client(cluster) as client:
                 yield client
