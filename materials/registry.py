@@ -137,7 +137,11 @@ def register_preset(name: str, cls: str, exposed: dict[str, tuple], fixed: dict 
 
 
 def _load():
-    from . import classes  # noqa: F401  (registers every class module and preset)
+    # import by full name: `from . import classes` would return the `classes()` function that
+    # materials/__init__.py re-exports under the same name, and never import the subpackage
+    import importlib
+
+    importlib.import_module(f"{__package__}.classes")  # registers every class module and preset
 
 
 def get_class(name: str) -> MaterialClass:

@@ -1,0 +1,92 @@
+"""Wood: planks with growth rings, fibres and pores along the grain, optional varnish."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..color import color_param
+from ..compose import P, finish, lerp, rgb, rgb_params, tint
+from ..noise import F32, Tex, smoothstep
+from ..registry import register_class, register_preset
+
+PARAMS = [
+    *rgb_params("color", (0.75, 0.52, 0.3), "early (light) wood colour"),
+    P("late_dark", 0.45, 0.0, 0.85, "darkening of the late-wood rings"),
+    P("rings", 12, 3, 40, "growth rings across one plank", "int"),
+    P("ring_distort", 0.6, 0.0, 2.0, "waviness of the rings (ring widths)"),
+    P("ring_sharp", 0.5, 0.0, 1.0, "sharpness of the ring boundary"),
+    P("planks", 4, 1, 12, "planks across the texture (grain runs down the image)", "int"),
+    P("plank_gap", 0.004, 0.0, 0.015, "groove between planks (texture widths)"),
+    P("plank_var", 0.15, 0.0, 0.5, "colour difference between planks"),
+    P("fibres", 0.4, 0.0, 1.0, "depth of the fibre streaks"),
+    P("pores", 0.3, 0.0, 1.0, "depth of pores along the grain"),
+    P("roughness", 0.5, 0.05, 0.9, "roughness of the wood surface"),
+    P("varnish", 0.0, 0.0, 1.0, "glossy varnish coat (lower roughness, slightly higher F0)"),
+    P("knots", 0.0, 0.0, 1.0, "dark knot blotches"),
+]
+
+
+@register_class("wood", PARAMS)
+def wood(p: dict, size: int, rng: np.random.Generator):
+    """Sawn wood planks."""
+    tex = Tex(size, rng)
+    early = color_param(p, "color")
+    npl = int(round(p["planks"]))
+    w1, w2 = tex.fbm2(0.35, beta=3.5, aniso=4.0, angle=np.pi / 2)
+    fib = tex.fbm(0.25, beta=1.6, aniso=30.0, angle=np.pi / 2, detail=0.5 / size)
+    pore = tex.fbm(0.1, beta=1.0, aniso=12.0, angle=np.pi / 2)
+    kn = tex.blobs(0.05)
+    g = tex.sub()
+    poff = g.random(12).astype(F32)  # per plank ring phase / colour offsets (fixed count: size-free draws)
+    pcol = g.standard_normal(12).astype(F32)
+    pshift = g.random(12).astype(F32)
+
+    x = tex.u * npl
+    plank = np.floor(x).astype(np.int32)
+    fx = x - plank
+    rings = int(round(p["rings"]))
+    # rings: stripes across the plank, waved by noise; different phase per plank
+    ph = fx * rings + p["ring_distort"] * (w1 + 0.3 * w2) + poff[plank] * rings
+    ph = ph - np.floor(ph)
+    sharp = 0.05 + 0.4 * (1 - p["ring_sharp"])
+    late = smoothstep(0.55 - sharp, 0.55 + sharp * 0.3, ph) * (1 - smoothstep(0.9, 1.0, ph))
+    knot = np.clip(kn + pshift[plank] - 3.0 + 2.0 * p["knots"], 0, 1) * min(1.0, 20 * p["knots"])
+    col = tint(early, pcol[plank] * np.ones_like(fx), p["plank_var"])
+    col = col * (1 - p["late_dark"] * late - 0.6 * knot)[..., None]
+    col = col * (1 + 0.08 * fib)[..., None]
+    edge = np.minimum(fx, 1 - fx) / npl
+    groove = 1 - smoothstep(0.0, max(p["plank_gap"], 1e-6), edge) if p["plank_gap"] > 0 else np.zeros_like(fx)
+    porem = np.clip(pore - 1.0, 0, None)
+    h = 0.0004 * p["fibres"] * fib - 0.0006 * p["pores"] * porem - 0.003 * groove + 0.0004 * late
+    col = col * (1 - 0.5 * groove)[..., None]
+    v = p["varnish"]
+    r = lerp((p["roughness"] + 0.1 * late)[..., None], np.full(1, 0.08, F32), np.full(fx.shape, v, F32))[..., 0]
+    r = r + 0.15 * (1 - v) * porem
+    spec = 0.04 + 0.02 * v
+    return finish(h * (1 - 0.6 * v), 1.0, col, spec, np.clip(r, 0.03, 1))
+
+
+register_preset("wood/oak_planks", "wood", {
+    **rgb("color", (0.72, 0.52, 0.3), (-0.15, 0.12)),
+    "planks": (4, 2, 8), "rings": (14, 8, 24), "late_dark": (0.4, 0.2, 0.6), "ring_distort": (0.6, 0.2, 1.2),
+    "plank_var": (0.15, 0.0, 0.35), "roughness": (0.55, 0.35, 0.75), "pores": (0.4, 0.1, 0.8)})
+register_preset("wood/varnished_walnut", "wood", {
+    **rgb("color", (0.45, 0.28, 0.16), (-0.1, 0.1)),
+    "varnish": (0.8, 0.5, 1.0), "rings": (10, 5, 18), "late_dark": (0.55, 0.3, 0.75), "ring_sharp": (0.4, 0.0, 0.9),
+    "planks": (3, 1, 6)}, fixed={"plank_gap": 0.002})
+register_preset("wood/pine_board", "wood", {
+    **rgb("color", (0.85, 0.68, 0.45), (-0.1, 0.1)),
+    "knots": (0.4, 0.1, 0.8), "rings": (8, 4, 14), "ring_sharp": (0.8, 0.4, 1.0), "ring_distort": (1.0, 0.4, 1.8),
+    "late_dark": (0.35, 0.15, 0.55), "fibres": (0.5, 0.2, 1.0)}, fixed={"planks": 1, "plank_gap": 0.0})
+register_preset("wood/parquet_maple", "wood", {
+    **rgb("color", (0.88, 0.72, 0.52), (-0.1, 0.08)),
+    "planks": (8, 5, 12), "plank_gap": (0.003, 0.001, 0.008), "plank_var": (0.25, 0.05, 0.5),
+    "varnish": (0.5, 0.2, 0.9), "late_dark": (0.2, 0.05, 0.4), "rings": (20, 10, 35)})
+register_preset("wood/weathered_grey", "wood", {
+    **rgb("color", (0.55, 0.52, 0.48), (-0.15, 0.1)),
+    "fibres": (0.8, 0.4, 1.0), "pores": (0.7, 0.3, 1.0), "roughness": (0.8, 0.6, 0.9), "plank_gap": (0.008, 0.003, 0.015),
+    "planks": (3, 2, 6), "late_dark": (0.3, 0.1, 0.5), "plank_var": (0.1, 0.0, 0.3)},
+    fixed={"ring_distort": 1.0})
+register_preset("wood/mahogany_veneer", "wood", {
+    **rgb("color", (0.5, 0.2, 0.1), (-0.1, 0.1)),
+    "ring_distort": (1.4, 0.8, 2.0), "rings": (25, 15, 40), "varnish": (0.6, 0.3, 1.0), "late_dark": (0.4, 0.2, 0.6)},
+    fixed={"planks": 1, "plank_gap": 0.0})

@@ -1,0 +1,67 @@
+"""Small building blocks shared by the material classes: parameter shorthands and map assembly."""
+from __future__ import annotations
+
+import numpy as np
+
+from .maps import SVBRDF
+from .noise import F32, height_to_normal
+from .params import Param
+
+
+def P(name: str, default: float, low: float, high: float, doc: str, kind: str = "float") -> Param:
+    """Shorthand for :class:`Param`."""
+    return Param(name, float(default), float(low), float(high), doc, kind)
+
+
+def rgb_params(prefix: str, rgb: tuple[float, float, float], doc: str) -> list[Param]:
+    """Three sRGB channel parameters ``<prefix>_r/_g/_b`` in [0, 1] (decoded with colour-science)."""
+    return [Param(f"{prefix}_{c}", float(v), 0.0, 1.0, f"{doc} ({c.upper()}, sRGB)", "srgb")
+            for c, v in zip("rgb", rgb)]
+
+
+def rgb(prefix: str, rgb_: tuple[float, float, float], r=(0.0, 1.0)) -> dict[str, tuple]:
+    """Preset ``exposed`` entries for an sRGB colour: ``{prefix_r: (r, lo, hi), ...}``, range clipped to [0, 1]."""
+    return {f"{prefix}_{c}": (v, max(0.0, min(v, v + r[0])), min(1.0, max(v, v + r[1])))
+            for c, v in zip("rgb", rgb_)}
+
+
+def rgb_fixed(prefix: str, rgb_: tuple[float, float, float]) -> dict[str, float]:
+    """Preset ``fixed`` entries for an sRGB colour."""
+    return {f"{prefix}_{c}": float(v) for c, v in zip("rgb", rgb_)}
+
+
+def lerp(a, b, t):
+    """Linear blend; ``t`` (H, W) broadcasts over the channel axis of (H, W, 3) maps or (3,) colours."""
+    t = np.asarray(t, F32)
+    if t.ndim == 2:
+        t = t[..., None]
+    return (np.asarray(a, F32) * (1 - t) + np.asarray(b, F32) * t).astype(F32)
+
+
+def tint(color: np.ndarray, field: np.ndarray, amount: float) -> np.ndarray:
+    """Colour (3,) or (H, W, 3) modulated by a zero-mean field (H, W): ``color * exp(amount * field)`` -> (H, W, 3)."""
+    c = np.asarray(color, F32)
+    return (c * np.exp(F32(amount) * field)[..., None]).astype(F32)
+
+
+def finish(height: np.ndarray, strength: float, diffuse, specular, roughness) -> SVBRDF:
+    """Assemble an :class:`SVBRDF`, broadcasting and clipping every map to [0, 1].
+
+    Args:
+        height: (H, W) height in texture widths (see :func:`materials.noise.height_to_normal`).
+        strength: slope multiplier.
+        diffuse, specular: (H, W, 3), (3,) or scalars, linear.
+        roughness: (H, W) or scalar.
+    """
+    n = height.shape[0]
+    shp3 = (n, n, 3)
+
+    def as3(x):
+        x = np.asarray(x, F32)
+        if x.ndim == 2:
+            x = x[..., None]
+        return np.clip(np.broadcast_to(x, shp3), 0, 1).astype(F32)
+
+    r = np.asarray(roughness, F32)
+    r = np.clip(np.broadcast_to(r.reshape(r.shape + (1,)) if r.ndim == 2 else r, (n, n, 1)), 0, 1).astype(F32)
+    return SVBRDF(height_to_normal(height, strength), as3(diffuse), as3(specular), r)
