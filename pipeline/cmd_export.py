@@ -1,0 +1,18 @@
+"""`svgen export RENDERS OUT --format deschaintre|exr|png`."""
+from __future__ import annotations
+
+import click
+
+
+@click.command()
+@click.argument("renders", type=click.Path())
+@click.argument("out", type=click.Path())
+@click.option("--format", "fmt", type=click.Choice(["deschaintre", "exr", "png"]), default="deschaintre",
+              show_default=True, help="deschaintre: the 2018 dataset layout; exr: linear maps; png: previews.")
+@click.option("--limit", type=click.IntRange(min=1), default=None, help="Only the first N views.")
+def export(renders, out, fmt, limit):
+    """Write the views of a RENDERS store to files under OUT."""
+    from .export import export as run_export
+
+    n = run_export(renders, out, fmt, limit)
+    click.echo(f"wrote {n} views to {out}")

@@ -1,0 +1,117 @@
+"""Export a renders store to files other tools read: the 2018 dataset layout, linear EXR, PNG previews.
+
+Formats (a registry: name -> writer of one view):
+
+* ``deschaintre``: one PNG per view, ``input | normal | diffuse | roughness | specular`` side by side, each
+  res x res, 8-bit, maps linear and normals encoded (n + 1) / 2, roughness repeated over RGB -- the layout
+  the original code (``material_net.py``) splits into 1 input + 4 targets -- and a JSON sidecar per view with
+  the light and camera positions, texture scale (zoom), rotation and shift, and the source material.
+* ``exr``: per view a folder of linear float EXR files (input, normal in [-1, 1], diffuse, roughness,
+  specular) via OpenEXR, plus the same JSON sidecar.
+* ``png``: per view a folder of previews for people: sRGB-encoded input, diffuse and specular
+  (colour-science), encoded normal, roughness as grey.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from materials.maps import SVBRDF, encode_normal
+
+from .errors import StoreError
+from .image_io import srgb_encode, write_exr, write_png
+from .progress import progress
+
+Writer = Callable[[Path, str, np.ndarray, SVBRDF, dict], list[Path]]
+FORMATS: dict[str, Writer] = {}
+
+
+def register_format(name: str):
+    def deco(fn: Writer) -> Writer:
+        FORMATS[name] = fn
+        return fn
+
+    return deco
+
+
+def _rgb(a: np.ndarray) -> np.ndarray:
+    return np.repeat(a, 3, axis=-1) if a.shape[-1] == 1 else a
+
+
+def _sidecar(path: Path, meta: dict) -> Path:
+    path.write_text(json.dumps(meta, indent=1, sort_keys=True))
+    return path
+
+
+@register_format("deschaintre")
+def write_deschaintre(out: Path, name: str, image: np.ndarray, maps: SVBRDF, meta: dict) -> list[Path]:
+    strip = np.concatenate([image, encode_normal(maps.normal), maps.diffuse, _rgb(maps.roughness), maps.specular],
+                           axis=1)
+    return [write_png(out / f"{name}.png", strip), _sidecar(out / f"{name}.json", meta)]
+
+
+@register_format("exr")
+def write_exr_set(out: Path, name: str, image: np.ndarray, maps: SVBRDF, meta: dict) -> list[Path]:
+    d = out / name
+    d.mkdir(exist_ok=True)
+    files = [write_exr(d / "input.exr", image)]
+    files += [write_exr(d / f"{k}.exr", _rgb(v)) for k, v in maps.as_dict().items()]
+    return files + [_sidecar(d / "meta.json", meta)]
+
+
+@register_format("png")
+def write_previews(out: Path, name: str, image: np.ndarray, maps: SVBRDF, meta: dict) -> list[Path]:
+    d = out / name
+    d.mkdir(exist_ok=True)
+    return [write_png(d / "input.png", srgb_encode(image)), write_png(d / "normal.png", encode_normal(maps.normal)),
+            write_png(d / "diffuse.png", srgb_encode(maps.diffuse)),
+            write_png(d / "roughness.png", _rgb(maps.roughness)),
+            write_png(d / "specular.png", srgb_encode(maps.specular)), _sidecar(d / "meta.json", meta)]
+
+
+def view_meta(reader, i: int) -> dict:
+    """The JSON sidecar of view ``i``: light, camera, texture transform, source material."""
+    from .render.scene import scene_constants
+
+    v = reader.view_params(i)
+    c = scene_constants()
+    return {"view": int(i), "light": [float(v.light_x), float(v.light_y), float(c["camera_distance"])],
+            "camera": [0.0, 0.0, float(c["camera_distance"])], "fov_deg": float(c["fov_deg"]),
+            "scale": float(v.zoom), "rotation_rad": float(v.rotation), "shift": [float(v.shift_u), float(v.shift_v)],
+            "seed": int(v.seed), "source": reader.source(i), "encoding": FORMAT_ENCODINGS}
+
+
+FORMAT_ENCODINGS = {"input": "linear LDR [0,1]", "normal": "(n+1)/2 (deschaintre/png), n (exr)",
+                    "diffuse": "linear (deschaintre/exr), sRGB (png)", "roughness": "perceptual r, alpha = r^2",
+                    "specular": "linear F0 (deschaintre/exr), sRGB (png)"}
+
+
+def export(store, out, fmt: str, limit: int | None = None) -> int:
+    """Write every view (or the first ``limit``) of a renders store to ``out`` in format ``fmt``.
+
+    Writes into ``<out>.partial`` and renames when complete, so a killed export never looks complete.
+
+    Returns:
+        number of views written.
+    """
+    from .render.store import RendersReader
+
+    if fmt not in FORMATS:
+        raise StoreError(f"unknown export format {fmt!r}; known: {', '.join(FORMATS)}")
+    out = Path(out)
+    if out.exists():
+        raise StoreError(f"output {out} already exists; choose another path or delete it")
+    reader = RendersReader(store)
+    n = len(reader) if limit is None else min(limit, len(reader))
+    tmp = out.with_name(out.name + ".partial")
+    tmp.mkdir(parents=True, exist_ok=True)
+    with progress(n, f"export {fmt}", unit="view") as bar:
+        for i in range(n):
+            FORMATS[fmt](tmp, f"{i:07d}", reader.image(i), reader.maps(i), view_meta(reader, i))
+            bar.update(1)
+    os.replace(tmp, out)
+    return n
