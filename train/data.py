@@ -1,0 +1,198 @@
+"""Training data: a torch Dataset over a renders source, the held-out split, augmentation, the loader.
+
+A *source* is anything with ``__len__``, ``image(i) -> (H, W, 3) float32``, ``maps(i) -> SVBRDF``
+(aligned with the image pixel for pixel) and ``source(i)`` (the material/preset ids it came from):
+the renders store reader of ``pipeline.render.store`` or :class:`train.synthetic.SyntheticSource`.
+
+Determinism: the batch of step t is a pure function of (seed, t): sample *position* p = t·B + b
+selects index ``perm_e[p mod N]`` with ``perm_e`` the permutation of epoch e = p // N, and the crop and
+flip/rotation come from a generator seeded by (seed, p). So any number of workers, and a run resumed
+at step t, see exactly the same batches.
+"""
+from __future__ import annotations
+
+from typing import Any, Iterator, Protocol, Sequence
+
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, Dataset, Sampler
+
+from pipeline.errors import StoreError
+from pipeline.seeds import rng_for
+
+
+class Source(Protocol):
+    def __len__(self) -> int: ...
+    def image(self, i: int) -> np.ndarray: ...
+    def maps(self, i: int) -> Any: ...
+    def source(self, i: int) -> Any: ...
+
+
+def packed_maps(src: Source, i: int) -> np.ndarray:
+    """(H, W, 10) packed maps of sample i (normal, diffuse, specular, roughness)."""
+    if hasattr(src, "packed"):
+        return src.packed(i)
+    m = src.maps(i)
+    return np.concatenate([m.normal, m.diffuse, m.specular, m.roughness], -1).astype(np.float32)
+
+
+def preset_ids(src_entry: Any) -> tuple[str, ...]:
+    """Normalise whatever ``source(i)`` returns into a tuple of preset/material names.
+
+    Accepts a name, a sequence of names, or a mapping with "presets"/"preset"/"sources"/"materials".
+    """
+    if isinstance(src_entry, str):
+        return (src_entry,)
+    if isinstance(src_entry, dict):
+        for key in ("presets", "preset", "sources", "materials", "material"):
+            if key in src_entry:
+                return preset_ids(src_entry[key])
+        raise StoreError(f"cannot find preset ids in source entry {src_entry!r}")
+    if isinstance(src_entry, (list, tuple, np.ndarray)):
+        return tuple(str(x) for x in src_entry)
+    return (str(src_entry),)
+
+
+def split_by_source(src: Source, holdout: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Hold out a fraction of the presets; no preset appears on both sides.
+
+    A sample (a blend may have two sources) is in the test split when all its presets are held out,
+    in the train split when none is, and dropped when it mixes both.
+
+    Returns:
+        (train indices, test indices), sorted int64 arrays.
+    """
+    ids = [preset_ids(src.source(i)) for i in range(len(src))]
+    names = sorted({n for t in ids for n in t})
+    if len(names) < 2:
+        raise StoreError(f"the held-out split needs at least 2 source presets, the source has {len(names)}")
+    rng = rng_for(seed, "eval", 0)
+    n_test = min(len(names) - 1, max(1, int(round(holdout * len(names)))))
+    test = set(rng.permutation(names)[:n_test].tolist())
+    train_idx = [i for i, t in enumerate(ids) if not any(n in test for n in t)]
+    test_idx = [i for i, t in enumerate(ids) if all(n in test for n in t)]
+    return np.asarray(train_idx, np.int64), np.asarray(test_idx, np.int64)
+
+
+def augment(image: np.ndarray, maps: np.ndarray, rng: np.random.Generator | None, crop: int,
+            flips: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Crop, rotate by k·90° and flip an image and its maps together, keeping normals consistent.
+
+    With x right and y up in the image, ``np.rot90`` (counter-clockwise on screen) maps a normal
+    (x, y) to (-y, x); a left-right flip negates x; rng=None takes the centre crop only.
+
+    Args:
+        image: (H, W, 3). maps: (H, W, 10) packed.
+        rng: randomness (None: deterministic centre crop, no flips).
+        crop: output side (<= H, W).
+
+    Returns:
+        (crop, crop, 3) image and (crop, crop, 10) maps, contiguous float32.
+    """
+    h, w = image.shape[:2]
+    if crop > h or crop > w:
+        raise StoreError(f"crop {crop} is larger than the {h}x{w} renders")
+    if rng is None:
+        y0, x0 = (h - crop) // 2, (w - crop) // 2
+    else:
+        y0, x0 = int(rng.integers(0, h - crop + 1)), int(rng.integers(0, w - crop + 1))
+    img = image[y0:y0 + crop, x0:x0 + crop]
+    mp = maps[y0:y0 + crop, x0:x0 + crop]
+    if rng is not None and flips:
+        k = int(rng.integers(0, 4))
+        flip = bool(rng.integers(0, 2))
+        if k:
+            img = np.rot90(img, k)
+            mp = np.rot90(mp, k).copy()
+            nx, ny = mp[..., 0].copy(), mp[..., 1].copy()
+            c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][k]
+            mp[..., 0] = c * nx - s * ny
+            mp[..., 1] = s * nx + c * ny
+        if flip:
+            img = img[:, ::-1]
+            mp = mp[:, ::-1].copy()
+            mp[..., 0] = -mp[..., 0]
+    return np.ascontiguousarray(img, np.float32), np.ascontiguousarray(mp, np.float32)
+
+
+class PairDataset(Dataset):
+    """(image, maps) pairs addressed by sample *position* (see module docstring).
+
+    Args:
+        src: the source.
+        indices: the source indices this dataset draws from (e.g. the train split).
+        crop: crop side.
+        seed: master seed.
+        train: random crops/flips and epoch permutations; False = index k is ``indices[k]``,
+            centre crop, no flips (evaluation).
+        flips: random 90° rotations and flips (train only).
+
+    Items are ``(image (3, c, c), maps (10, c, c))`` float32 tensors.
+    """
+
+    def __init__(self, src: Source, indices: Sequence[int], crop: int, seed: int = 0, train: bool = True,
+                 flips: bool = True):
+        self.src, self.indices = src, np.asarray(indices, np.int64)
+        if len(self.indices) == 0:
+            raise StoreError("the dataset split is empty (too few samples or presets)")
+        self.crop, self.seed, self.train, self.flips = int(crop), int(seed), train, flips
+        self._perm_epoch, self._perm = -1, None
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def index_of(self, pos: int) -> int:
+        """Source index at sample position ``pos`` (train: epoch permutations)."""
+        if not self.train:
+            return int(self.indices[pos])
+        n = len(self.indices)
+        epoch = pos // n
+        if epoch != self._perm_epoch:
+            self._perm = rng_for(self.seed, "train", 5, epoch).permutation(n)
+            self._perm_epoch = epoch
+        return int(self.indices[self._perm[pos % n]])
+
+    def __getitem__(self, pos: int) -> tuple[torch.Tensor, torch.Tensor]:
+        i = self.index_of(int(pos))
+        rng = rng_for(self.seed, "train", 6, int(pos)) if self.train else None
+        img, mp = augment(np.asarray(self.src.image(i), np.float32), packed_maps(self.src, i), rng, self.crop,
+                          self.flips)
+        return torch.from_numpy(img).permute(2, 0, 1), torch.from_numpy(mp).permute(2, 0, 1)
+
+
+class StepSampler(Sampler):
+    """Batches of sample positions for steps ``start .. stop-1``: step t -> [t·B, ..., t·B + B - 1]."""
+
+    def __init__(self, batch_size: int, start: int, stop: int):
+        self.b, self.start, self.stop = int(batch_size), int(start), int(stop)
+
+    def __iter__(self) -> Iterator[list[int]]:
+        for t in range(self.start, self.stop):
+            yield list(range(t * self.b, (t + 1) * self.b))
+
+    def __len__(self) -> int:
+        return max(0, self.stop - self.start)
+
+
+def make_loader(ds: PairDataset, batch_size: int, start: int, stop: int, workers: int) -> DataLoader:
+    """A DataLoader yielding the batches of steps start..stop-1 (any worker count gives the same batches)."""
+    return DataLoader(ds, batch_sampler=StepSampler(batch_size, start, stop), num_workers=workers,
+                      persistent_workers=False, prefetch_factor=4 if workers else None)
+
+
+def open_source(data_cfg) -> Source:
+    """The renders store at ``data_cfg.store``, or the synthetic source when it is None."""
+    if data_cfg.store:
+        from pathlib import Path
+
+        if not Path(data_cfg.store).exists():
+            raise StoreError(f"renders store {data_cfg.store!r} does not exist")
+        try:
+            from pipeline.render.store import RendersReader
+        except ImportError as e:
+            raise StoreError(f"cannot read renders stores on this install ({e})") from None
+        return RendersReader(data_cfg.store)
+    from .synthetic import SyntheticSource
+
+    return SyntheticSource(data_cfg.synthetic_samples, data_cfg.synthetic_size, data_cfg.synthetic_materials,
+                           seed=data_cfg.synthetic_seed, kind=data_cfg.synthetic_kind)

@@ -1,0 +1,168 @@
+"""``svtrain fit``: the training loop, checkpoints that resume bit-for-bit, metrics and the loss curve.
+
+Resume equivalence: everything random is either a pure function of (seed, step) (the batches, see
+``train.data``) or a generator whose state is checkpointed (loss configurations: ``loss_rng``;
+dropout: torch's global RNG). So stopping at any checkpoint and resuming reproduces the
+uninterrupted run exactly on the same machine and thread count.
+
+Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (full state),
+``model.pt`` (weights + config), ``metrics.json``, ``loss.csv``, ``loss.png``.
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+import yaml
+
+from pipeline.errors import ConfigError
+from pipeline.log import get_logger
+from pipeline.progress import progress
+from pipeline.seeds import derive_seed
+
+from . import checkpoint
+from .config import Config
+from .data import PairDataset, make_loader, open_source, split_by_source
+from .loss import make_loss
+from .net import SVBRDFNet, count_parameters
+
+log = get_logger(__name__)
+
+
+def _seeded(seed: int, key: int) -> int:
+    return derive_seed(seed, "train", 100 + key)
+
+
+def build(cfg: Config) -> tuple[SVBRDFNet, torch.optim.Optimizer, torch.Generator]:
+    """Fresh model (seeded init), Adam, and the loss-configuration generator."""
+    o = cfg.optim
+    torch.manual_seed(_seeded(o.seed, 0))
+    model = SVBRDFNet(cfg.model)
+    opt = torch.optim.Adam(model.parameters(), lr=o.lr, betas=(o.beta1, o.beta2))
+    gen = torch.Generator().manual_seed(_seeded(o.seed, 1))
+    torch.manual_seed(_seeded(o.seed, 2))  # the dropout stream
+    return model, opt, gen
+
+
+def _write_outputs(out: Path, cfg: Config, losses: list[float], extra: dict) -> dict:
+    o = cfg.optim
+    arr = np.asarray(losses, np.float64)
+    rows = []
+    for end in range(o.log_every, len(arr) + 1, o.log_every):
+        rows.append((end, float(arr[end - o.log_every:end].mean())))
+    if len(arr) % o.log_every:
+        rows.append((len(arr), float(arr[len(arr) - len(arr) % o.log_every:].mean())))
+    with open(out / "loss.csv", "w") as f:
+        f.write("step,loss\n")
+        f.writelines(f"{s},{v:.6g}\n" for s, v in rows)
+    tail = arr[-max(1, min(len(arr), 5 * o.log_every)):] if len(arr) else arr
+    metrics = {"step": int(len(arr)), "loss_final": float(tail.mean()) if len(tail) else None,
+               "loss_first": float(arr[:o.log_every].mean()) if len(arr) else None, **extra}
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    _plot(out / "loss.png", rows)
+    return metrics
+
+
+def _plot(path: Path, rows: list[tuple[int, float]]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 3.5), dpi=100)
+    if rows:
+        ax.plot([r[0] for r in rows], [r[1] for r in rows])
+    ax.set_xlabel("step")
+    ax.set_ylabel("rendering loss (log-L1)")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop_after: int | None = None,
+        show_progress: bool | None = None) -> dict:
+    """Train (or continue training) into ``out_dir``.
+
+    Args:
+        cfg: validated config.
+        out_dir: run directory (created).
+        resume: continue from ``out_dir/checkpoint.pt`` when it exists.
+        source: a data source (default: ``open_source(cfg.data)``).
+        stop_after: stop after this many steps of *this call* (tests simulate an interruption),
+            checkpointing first.
+        show_progress: force the progress bar on/off.
+
+    Returns:
+        the metrics dict (also in metrics.json).
+    """
+    cfg.validate()
+    o = cfg.optim
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if o.threads:
+        torch.set_num_threads(o.threads)
+    ckpt_path = out / "checkpoint.pt"
+    model, opt, gen = build(cfg)
+    start, losses = 0, []
+    if resume and ckpt_path.exists():
+        state = checkpoint.load(ckpt_path)
+        if state["config"]["model"] != cfg.to_dict()["model"]:
+            raise ConfigError(f"{out} holds a run with a different model config; use a new --out or --no-resume")
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optim"])
+        gen.set_state(state["loss_rng"])
+        torch.set_rng_state(state["torch_rng"])
+        start, losses = int(state["step"]), list(state["losses"])
+        log.info("resuming %s at step %d", out, start)
+    (out / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
+
+    src = source if source is not None else open_source(cfg.data)
+    train_idx, test_idx = split_by_source(src, cfg.data.holdout, o.seed)
+    ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
+    stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
+    loss_fn = make_loss(o.compile_loss)
+
+    def save(step: int) -> None:
+        checkpoint.save(ckpt_path, {"config": cfg.to_dict(), "model": model.state_dict(), "optim": opt.state_dict(),
+                                    "loss_rng": gen.get_state(), "torch_rng": torch.get_rng_state(), "step": step,
+                                    "losses": losses})
+
+    step = start
+    t0 = time.perf_counter()
+    bar = progress(total=o.iterations, desc="fit", unit="it", initial=start, disable=None if show_progress is None
+                   else not show_progress)
+    model.train()
+    try:
+        if stop > start:
+            # A dedicated loader generator: DataLoader otherwise draws its base seed from torch's global
+            # RNG, which would shift the dropout stream between an uninterrupted and a resumed run.
+            loader = make_loader(ds, o.batch_size, start, stop, cfg.data.workers)
+            loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
+            for image, maps in loader:
+                loss = loss_fn(model(image), maps, gen)
+                opt.zero_grad(set_to_none=True)
+                loss.backward()
+                opt.step()
+                losses.append(float(loss.detach()))
+                step += 1
+                bar.update(1)
+                bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}")
+                if step % o.checkpoint_every == 0 and step < stop:
+                    save(step)
+    except KeyboardInterrupt:
+        save(step)
+        bar.close()
+        log.info("interrupted at step %d; checkpoint saved, rerun the same command to resume", step)
+        raise
+    bar.close()
+    elapsed = time.perf_counter() - t0
+    save(step)
+    checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": model.state_dict(), "step": step})
+    extra = {"it_per_s": (step - start) / elapsed if step > start and elapsed > 0 else None,
+             "parameters": count_parameters(model), "train_samples": int(len(train_idx)),
+             "test_samples": int(len(test_idx)), "done": step >= o.iterations}
+    return _write_outputs(out, cfg, losses, extra)

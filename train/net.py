@@ -1,0 +1,137 @@
+"""U-Net with instance normalisation and the global-feature track of the paper (§4.1–4.2).
+
+Every convolution is followed by instance normalisation whose subtracted means feed the global track
+(concatenated with the previous global vector -> FC -> SELU), and the previous global vector is added
+back to the normalised maps as a per-channel bias (FC) before the leaky ReLU. Dropout sits on the
+coarsest decoder levels and, unlike the original code, is off at inference (``model.eval()``).
+
+Strided 4×4 convolutions downsample (as in the paper); the stride-1 decoder convolutions are 3×3
+because an even kernel at stride 1 shifts the output by half a pixel.
+"""
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+from .config import ModelConfig
+
+IN_EPS = 1e-5
+LOG_EPS = 0.01
+
+
+def log_map(x: torch.Tensor) -> torch.Tensor:
+    """DESIGN.md input mapping of a linear image: (log(x+0.01) - log 0.01) / (log 1.01 - log 0.01) ∈ [0, 1]."""
+    x = x.clamp(0.0, 1.0)
+    return (torch.log(x + LOG_EPS) - math.log(LOG_EPS)) / (math.log(1.0 + LOG_EPS) - math.log(LOG_EPS))
+
+
+class GlobalConv(nn.Module):
+    """conv -> instance norm -> + FC(global) bias; the norm's means update the global vector.
+
+    Args:
+        cin, cout: channels.
+        k, stride, pad: convolution geometry.
+        gdim: size of the incoming global vector.
+    """
+
+    def __init__(self, cin: int, cout: int, k: int, stride: int, pad: int, gdim: int):
+        super().__init__()
+        self.conv = nn.Conv2d(cin, cout, k, stride, pad, bias=False)
+        self.scale = nn.Parameter(torch.ones(cout))
+        self.to_bias = nn.Linear(gdim, cout)
+        self.to_global = nn.Linear(gdim + cout, cout)
+        nn.init.normal_(self.to_bias.weight, std=0.01)
+        nn.init.zeros_(self.to_bias.bias)
+
+    def forward(self, x: torch.Tensor, g: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(B, cin, H, W), (B, gdim) -> (B, cout, H', W'), (B, cout)."""
+        y = self.conv(x)
+        mean = y.mean((2, 3))
+        var = y.var((2, 3), unbiased=False)
+        y = (y - mean[..., None, None]) * torch.rsqrt(var[..., None, None] + IN_EPS)
+        y = y * self.scale[:, None, None] + self.to_bias(g)[..., None, None]
+        g_next = F.selu(self.to_global(torch.cat([g, mean], 1)))
+        return y, g_next
+
+
+class SVBRDFNet(nn.Module):
+    """Linear flash photo (B, 3, H, W) -> packed maps (B, 10, H, W) (normal, diffuse, specular, roughness).
+
+    H and W must be multiples of 2^levels.
+    """
+
+    def __init__(self, cfg: ModelConfig):
+        super().__init__()
+        self.cfg = cfg
+        w = cfg.widths()
+        self.levels = cfg.levels
+        self.g0 = nn.Linear(3, w[0])
+        self.enc = nn.ModuleList()
+        cin, gdim = 3, w[0]
+        for c in w:
+            self.enc.append(GlobalConv(cin, c, 4, 2, 1, gdim))
+            cin, gdim = c, c
+        self.dec = nn.ModuleList()
+        self.drop = nn.ModuleList()
+        for n, i in enumerate(range(cfg.levels - 2, -1, -1)):
+            convs = nn.ModuleList()
+            c_in = cin + w[i]
+            for _ in range(cfg.decoder_convs):
+                convs.append(GlobalConv(c_in, w[i], 3, 1, 1, gdim))
+                c_in, gdim = w[i], w[i]
+            self.dec.append(convs)
+            self.drop.append(nn.Dropout(cfg.dropout) if n < cfg.dropout_levels and cfg.dropout > 0 else nn.Identity())
+            cin = w[i]
+        # Output layer at full resolution: skip from the input image; no norm, global bias only.
+        self.out_conv = nn.Conv2d(cin + 3, 9, 3, 1, 1)
+        self.out_bias = nn.Linear(gdim, 9)
+        nn.init.normal_(self.out_bias.weight, std=0.01)
+        nn.init.zeros_(self.out_bias.bias)
+
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
+        """Args: image (B, 3, H, W) linear in [0, 1]. Returns (B, 10, H, W) packed maps."""
+        x0 = log_map(image)
+        g = F.selu(self.g0(x0.mean((2, 3))))
+        skips = []
+        x = x0
+        for layer in self.enc:
+            x, g = layer(x, g)
+            x = F.leaky_relu(x, 0.2)
+            skips.append(x)
+        for convs, drop, skip in zip(self.dec, self.drop, reversed(skips[:-1])):
+            x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), skip], 1)
+            for conv in convs:
+                x, g = conv(x, g)
+                x = F.leaky_relu(x, 0.2)
+            x = drop(x)
+        x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), x0], 1)
+        o = self.out_conv(x) + self.out_bias(g)[..., None, None]
+        return outputs_to_maps(o)
+
+
+def outputs_to_maps(o: torch.Tensor) -> torch.Tensor:
+    """Raw 9-channel outputs -> packed maps.
+
+    Args:
+        o: (B, 9, H, W): normal xy, diffuse (3), roughness (1), specular (3).
+
+    Returns:
+        (B, 10, H, W): unit normal with reconstructed z > 0, diffuse, specular, roughness in [0, 1].
+    """
+    xy = torch.tanh(o[:, 0:2])
+    # z from the unit-length constraint; the floor keeps sqrt's gradient finite when |xy| -> 1,
+    # and the normalisation brings |xy| > 1 back onto the sphere.
+    z = torch.sqrt((1.0 - (xy * xy).sum(1, keepdim=True)).clamp(min=1e-4))
+    n = torch.cat([xy, z], 1)
+    n = n * torch.rsqrt((n * n).sum(1, keepdim=True))
+    diffuse = torch.sigmoid(o[:, 2:5])
+    rough = torch.sigmoid(o[:, 5:6])
+    spec = torch.sigmoid(o[:, 6:9])
+    return torch.cat([n, diffuse, spec, rough], 1)
+
+
+def count_parameters(model: nn.Module) -> int:
+    return sum(p.numel() for p in model.parameters())
