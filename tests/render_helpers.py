@@ -1,6 +1,8 @@
 """Helpers shared by the render tests (not fixtures: plain functions and a chi2 domain)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from materials.maps import SVBRDF, normalize
@@ -80,3 +82,79 @@ def checker_svbrdf(res: int, cells: int = 8, seed: int = 0) -> SVBRDF:
     normal = normalize(np.concatenate([nxy, np.ones((res, res, 1))], -1))
     return SVBRDF(normal=normal, diffuse=diffuse.astype(np.float32), specular=specular.astype(np.float32),
                   roughness=rough)
+
+
+def _sample_coords(view, res: int, base: int, ss: int) -> tuple[np.ndarray, np.ndarray]:
+    """Continuous base-texel coordinates (row, col) of the ss x ss subsamples of every output pixel.
+
+    Returns:
+        rows, cols: (res * res * ss * ss,) float64, pixel-major (the ss*ss subsamples of a pixel contiguous).
+    """
+    sub = (np.arange(ss) + 0.5) / ss
+    pix = np.arange(res)
+    # picture coordinates in picture widths, origin at the centre, x right, y up
+    x = ((pix[:, None] + sub[None, :]) / res - 0.5).reshape(-1)  # (res*ss,) along columns
+    y = (0.5 - (pix[:, None] + sub[None, :]) / res).reshape(-1)  # (res*ss,) along rows
+    Y, X = np.meshgrid(y, x, indexing="ij")  # (res*ss, res*ss)
+    c, s = math.cos(view.rotation), math.sin(view.rotation)
+    # texture = zoom * R(-rotation) picture + shift: the material appears rotated by +rotation on screen
+    tu = view.zoom * (c * X + s * Y) + view.shift_u
+    tv = view.zoom * (-s * X + c * Y) + view.shift_v
+    # texel centres at integers; identity view (zoom 1, no rotation/shift, res == base) hits texel centres
+    cols = tu * base - 0.5 + base / 2
+    rows = -tv * base - 0.5 + base / 2
+    if ss > 1:
+        rows = rows.reshape(res, ss, res, ss).transpose(0, 2, 1, 3)
+        cols = cols.reshape(res, ss, res, ss).transpose(0, 2, 1, 3)
+    return rows.reshape(-1), cols.reshape(-1)
+
+
+def numpy_transform_maps(base: SVBRDF, view, res: int) -> SVBRDF:
+    """Independent float64 numpy reference of pipeline.render.views.transform_maps. Resample tileable base maps into a view: zoom, rotation, shift with wrap-around, normals into screen space.
+
+    Bilinear interpolation with periodic wrap; when the view minifies (more than one base texel per output
+    pixel) each pixel averages ceil(texels per pixel)^2 bilinear subsamples (a box prefilter against aliasing).
+    Normals are interpolated, their xy rotated by ``view.rotation`` (the gradient of a rotated height field
+    rotates with it; zoom scales the surface itself, so slopes and normals do not change), and renormalised.
+
+    Args:
+        base: (B, B, C) square tileable maps.
+        view: the view.
+        res: output side length.
+
+    Returns:
+        SVBRDF with (res, res, C) float32 maps in screen space (numpy row 0 = image top).
+    """
+    b = base.normal.shape[0]
+    if base.normal.shape[:2] != (b, b):
+        raise ValueError(f"base maps must be square, got {base.normal.shape[:2]}")
+    ss = max(1, math.ceil(view.zoom * b / res - 1e-9))
+    rows, cols = _sample_coords(view, res, b, ss)
+    r0 = np.floor(rows)
+    c0 = np.floor(cols)
+    fr = (rows - r0).astype(np.float32)[:, None]
+    fc = (cols - c0).astype(np.float32)[:, None]
+    r0 = r0.astype(np.int64) % b
+    c0 = c0.astype(np.int64) % b
+    r1 = (r0 + 1) % b
+    c1 = (c0 + 1) % b
+    # all 10 channels in one (B*B, 10) table: one fancy-index gather per corner instead of one per map
+    table = np.concatenate([base.normal, base.diffuse, base.specular, base.roughness], axis=-1).reshape(b * b, -1)
+    out = (table[r0 * b + c0] * ((1 - fr) * (1 - fc)) + table[r0 * b + c1] * ((1 - fr) * fc)
+           + table[r1 * b + c0] * (fr * (1 - fc)) + table[r1 * b + c1] * (fr * fc))
+    if ss > 1:
+        out = out.reshape(res * res, ss * ss, -1).mean(axis=1)
+    out = out.reshape(res, res, -1).astype(np.float32)
+
+    n = out[..., 0:3]
+    c, s = math.cos(view.rotation), math.sin(view.rotation)
+    nx = c * n[..., 0] - s * n[..., 1]
+    ny = s * n[..., 0] + c * n[..., 1]
+    normal = np.stack([nx, ny, np.maximum(n[..., 2], 1e-4)], -1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    return SVBRDF(
+        normal=normal.astype(np.float32),
+        diffuse=np.clip(out[..., 3:6], 0.0, 1.0),
+        specular=np.clip(out[..., 6:9], 0.0, 1.0),
+        roughness=np.clip(out[..., 9:10], 0.0, 1.0),
+    )

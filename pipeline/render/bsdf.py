@@ -10,12 +10,13 @@ Model (alpha = r**2, clamped to ``ALPHA_MIN``; every vector in the shading frame
 The specular term is evaluated as ``D F / (4 (NL(1-k)+k) (NV(1-k)+k))``: algebraically identical (the NL NV of
 G cancel the 1/(4 NL NV)), but its denominator is >= k^2 > 0, so nothing divides by a cosine that reaches 0.
 
-Textures: the four maps live in ONE flat float buffer, 12 floats per texel
-``[nx ny nz | dr dg db | sr sg sb | r 0 0]`` (see :func:`pack_maps`), looked up with nearest filtering from the
-surface uv: column ``floor(u W)``, numpy row ``floor((1 - v) H)`` -- a Mitsuba ``rectangle`` has v = 0 at its
-bottom edge (y = -1), while numpy row 0 is the image top. One gather of three Vector3f per lookup is far cheaper
-than four bitmap textures, and the buffer is exposed to ``mi.traverse`` as ``maps`` so a loaded scene takes new
-maps without recompiling its kernel (the buffer is a kernel input, not a literal).
+Textures: the four maps are 10 channel planes, each a flat float buffer of H*W texels
+(:data:`CHANNELS`; see :func:`pack_maps`), looked up with nearest filtering from the surface uv: column
+``floor(u W)``, numpy row ``floor((1 - v) H)`` -- a Mitsuba ``rectangle`` has v = 0 at its bottom edge (y = -1),
+while numpy row 0 is the image top. Ten gathers are far cheaper than four bitmap textures, and the planes are
+exposed to ``mi.traverse`` as ``tex_<channel>`` so a loaded scene takes new maps without recompiling its kernel
+(a buffer is a kernel input, not a literal). Planes, not one interleaved buffer: a transform kernel can then
+write all channels as separate outputs of one kernel, with no scatter.
 
 Normal map: a texel's normal n (tangent space: x right, y up, z out) is expressed in the surface's local frame,
 which for the plane of the capture scene is (s, t, n) = (+x, +y, +z) = (image right, image up, to the camera).
@@ -36,8 +37,8 @@ mi = load_mitsuba()
 import drjit as dr  # noqa: E402  (after load_mitsuba: drjit must see the libLLVM path first)
 
 PLUGIN_NAME = "svgen_ggx"
-#: floats per texel in the packed map buffer.
-TEXEL_FLOATS = 12
+#: channel planes of the texture, in order: normal xyz, diffuse rgb, specular rgb, roughness.
+CHANNELS = ("nx", "ny", "nz", "dr", "dg", "db", "sr", "sg", "sb", "rough")
 #: smallest alpha: r = 0.01. Keeps D (peak 1/(pi a^2) ~ 3e7) finite in float32 and the VNDF sampler stable.
 ALPHA_MIN = 1e-4
 #: smallest probability of choosing the specular lobe (it is never exactly zero: F -> 1 at grazing angles).
@@ -46,7 +47,7 @@ _INV_PI = 1.0 / np.pi
 
 
 def pack_maps(normal: np.ndarray, diffuse: np.ndarray, specular: np.ndarray, roughness: np.ndarray) -> np.ndarray:
-    """Interleave maps into the plugin's flat texel buffer.
+    """Stack maps into the plugin's channel planes.
 
     Args:
         normal: (H, W, 3) unit tangent-space normals.
@@ -55,15 +56,11 @@ def pack_maps(normal: np.ndarray, diffuse: np.ndarray, specular: np.ndarray, rou
         roughness: (H, W, 1) perceptual roughness.
 
     Returns:
-        (H * W * 12,) float32, row-major with numpy row 0 = image top.
+        (10, H * W) float32 planes in :data:`CHANNELS` order, texels row-major with numpy row 0 = image top.
     """
     h, w = normal.shape[:2]
-    buf = np.zeros((h, w, TEXEL_FLOATS), np.float32)
-    buf[..., 0:3] = normal
-    buf[..., 3:6] = diffuse
-    buf[..., 6:9] = specular
-    buf[..., 9:10] = roughness
-    return buf.reshape(-1)
+    stacked = np.concatenate([normal, diffuse, specular, roughness], axis=-1).astype(np.float32)
+    return np.ascontiguousarray(stacked.reshape(h * w, len(CHANNELS)).T)
 
 
 def _schlick_sg(s, vh):
@@ -114,9 +111,9 @@ class GGXBSDF(mi.BSDF):
         roughness (float): constant perceptual roughness (default 0.5).
         normal (3-vector): constant tangent-space normal (default (0, 0, 1)); renormalised.
 
-    Traversable parameter:
-        maps (Float, H*W*12): the packed texel buffer of :func:`pack_maps`; replace it through
-        ``mi.traverse(scene)`` with a buffer of the same resolution.
+    Traversable parameters:
+        tex_nx ... tex_rough (Float, H*W each): the channel planes of :func:`pack_maps`; replace them through
+        ``mi.traverse(scene)`` with planes of the same resolution.
     """
 
     def __init__(self, props):
@@ -131,14 +128,14 @@ class GGXBSDF(mi.BSDF):
         n = np.asarray(props.get("normal", [0.0, 0.0, 1.0]), np.float64)
         n = (n / np.linalg.norm(n)).astype(np.float32)
         hw = (self.height, self.width)
-        self.maps = mi.Float(
-            pack_maps(
-                np.broadcast_to(n, hw + (3,)),
-                np.broadcast_to(rgb("diffuse", 0.5), hw + (3,)),
-                np.broadcast_to(rgb("specular", 0.04), hw + (3,)),
-                np.full(hw + (1,), float(props.get("roughness", 0.5)), np.float32),
-            )
+        planes = pack_maps(
+            np.broadcast_to(n, hw + (3,)),
+            np.broadcast_to(rgb("diffuse", 0.5), hw + (3,)),
+            np.broadcast_to(rgb("specular", 0.04), hw + (3,)),
+            np.full(hw + (1,), float(props.get("roughness", 0.5)), np.float32),
         )
+        for name, plane in zip(CHANNELS, planes):
+            setattr(self, "tex_" + name, mi.Float(plane))
         flags = (
             mi.BSDFFlags.DiffuseReflection
             | mi.BSDFFlags.GlossyReflection
@@ -151,13 +148,17 @@ class GGXBSDF(mi.BSDF):
 
     # ---- parameters -------------------------------------------------------------------------------------------
     def traverse(self, callback):
-        callback.put("maps", self.maps, mi.ParamFlags.NonDifferentiable)
+        for name in CHANNELS:
+            callback.put("tex_" + name, getattr(self, "tex_" + name), mi.ParamFlags.NonDifferentiable)
 
     def parameters_changed(self, keys=[]):
-        expected = self.width * self.height * TEXEL_FLOATS
-        if dr.width(self.maps) != expected:
-            raise ValueError(f"svgen_ggx: maps buffer has {dr.width(self.maps)} floats, expected {expected} "
-                             f"({self.height}x{self.width} texels x {TEXEL_FLOATS})")
+        # params.update() has already set the attributes named like the parameters (tex_<channel>)
+        expected = self.width * self.height
+        for name in CHANNELS:
+            plane = getattr(self, "tex_" + name)
+            if dr.width(plane) != expected:
+                raise ValueError(f"svgen_ggx: plane {name} has {dr.width(plane)} texels, expected {expected} "
+                                 f"({self.height}x{self.width})")
 
     def to_string(self):
         return f"GGXBSDF[{self.height}x{self.width}]"
@@ -167,11 +168,12 @@ class GGXBSDF(mi.BSDF):
         """Nearest-texel lookup -> (normal Vector3f, diffuse Color3f, specular Color3f, alpha Float)."""
         col = mi.UInt32(dr.clip(mi.Int32(dr.floor(si.uv.x * self.width)), 0, self.width - 1))
         row = mi.UInt32(dr.clip(mi.Int32(dr.floor((1.0 - si.uv.y) * self.height)), 0, self.height - 1))
-        base = (row * self.width + col) * 4  # Vector3f-sized slots: 12 floats = 4 slots per texel
-        n = dr.gather(mi.Vector3f, self.maps, base, active)
-        d = dr.gather(mi.Color3f, self.maps, base + 1, active)
-        s = dr.gather(mi.Color3f, self.maps, base + 2, active)
-        r = dr.gather(mi.Vector3f, self.maps, base + 3, active).x
+        idx = row * self.width + col
+        c = [dr.gather(mi.Float, getattr(self, "tex_" + name), idx, active) for name in CHANNELS]
+        n = mi.Vector3f(c[0], c[1], c[2])
+        d = mi.Color3f(c[3], c[4], c[5])
+        s = mi.Color3f(c[6], c[7], c[8])
+        r = c[9]
         n = dr.normalize(mi.Vector3f(n.x, n.y, dr.maximum(n.z, 1e-4)))
         alpha = dr.maximum(r * r, ALPHA_MIN)
         return n, d, s, alpha

@@ -1,0 +1,160 @@
+"""The capture scene of DESIGN.md, loaded once and re-rendered per view.
+
+Geometry: a 2 x 2 ``rectangle`` at z = 0 (normal +z), a pinhole camera at (0, 0, D) looking down -z with up +y
+and a 50 degree field of view, D = 1 / tan(25 deg), so the plane fills the picture exactly and film pixel
+(row i, col j) sees the plane square x in [-1 + 2j/res, -1 + 2(j+1)/res], y in [1 - 2(i+1)/res, 1 - 2i/res].
+The BSDF's texture has one texel per film pixel (nearest lookup, numpy row 0 = image top), so the maps of a
+view are exactly the textures it was rendered with.
+
+Flash: a point light, or a sphere of radius ``SPHERE_RADIUS``, in the plane z = D at the view's offset.
+Its intensity is fixed (the scale ambiguity of the paper): ``FLASH_INTENSITY = pi D^2`` W/sr, so a centred
+flash gives irradiance pi at the image centre, where a white Lambertian texel renders as exactly 1 and typical
+albedos (0.1 - 0.6) land mid-range, with the inverse-square and cosine fall-off to ~0.6x in the corners and
+highlights clipping. A sphere gets the radiance pi D^2 / (pi r^2) that gives it the same intensity.
+
+Per view only two things change, through ``mi.traverse`` + ``params.update()``: the BSDF's packed map buffer
+and the light's position (or the sphere's transform). Both are kernel inputs, not literals, so the render
+kernel is compiled once per scene and reused (``tests/test_render_scene.py`` checks the kernel history).
+
+Integrator: ``direct``. A point light is a delta light, reachable only by emitter sampling, so BSDF samples
+(bsdf_samples) would be wasted rays: 1 emitter sample, 0 BSDF samples. A small sphere uses MIS with one of
+each (BSDF sampling wins for lobes narrower than the sphere's ~0.5 degrees).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from materials.maps import SVBRDF
+
+from . import bsdf as _bsdf
+from .views import ViewParams, planes_of, transform_planes
+
+mi = _bsdf.mi
+dr = _bsdf.dr
+
+FOV_DEG = 50.0
+CAMERA_DISTANCE = 1.0 / math.tan(math.radians(FOV_DEG / 2))
+FLASH_INTENSITY = math.pi * CAMERA_DISTANCE**2
+SPHERE_RADIUS = 0.02
+LIGHT_MODELS = ("point", "sphere")
+
+
+def scene_constants() -> dict:
+    """Scene constants for store attributes."""
+    return {"fov_deg": FOV_DEG, "camera_distance": CAMERA_DISTANCE, "plane_size": 2.0,
+            "flash_intensity_w_sr": FLASH_INTENSITY, "sphere_radius": SPHERE_RADIUS}
+
+
+def _sphere_transform(x: float, y: float):
+    return mi.ScalarTransform4f().translate([x, y, CAMERA_DISTANCE]).scale(SPHERE_RADIUS)
+
+
+def scene_dict(res: int, spp: int, light_model: str = "point", jitter: bool = True) -> dict:
+    """The Mitsuba scene description (light at a default offset; views move it).
+
+    ``jitter=False`` uses a stratified sampler without jitter: spp must be a square k^2 and each pixel is
+    sampled at the centres of a k x k grid (k = 1: the pixel centre), deterministic and free of pixel noise.
+    """
+    if light_model not in LIGHT_MODELS:
+        raise ValueError(f"unknown light model {light_model!r}; use one of {LIGHT_MODELS}")
+    if not jitter and math.isqrt(spp) ** 2 != spp:
+        raise ValueError(f"jitter=False needs a square spp (1, 4, 9, 16 ...), got {spp}")
+    sampler = ({"type": "independent", "sample_count": spp} if jitter
+               else {"type": "stratified", "sample_count": spp, "jitter": False})
+    d = {
+        "type": "scene",
+        "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0 if light_model == "point" else 1},
+        "sensor": {
+            "type": "perspective",
+            "fov": FOV_DEG,
+            "fov_axis": "x",
+            "near_clip": 1e-3,
+            "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, CAMERA_DISTANCE], target=[0, 0, 0], up=[0, 1, 0]),
+            "film": {"type": "hdrfilm", "width": res, "height": res, "rfilter": {"type": "box"},
+                     "pixel_format": "rgb", "component_format": "float32", "sample_border": False},
+            "sampler": sampler,
+        },
+        "plane": {"type": "rectangle", "bsdf": {"type": _bsdf.PLUGIN_NAME, "width": res, "height": res}},
+    }
+    if light_model == "point":
+        d["light"] = {"type": "point", "position": [0.0, 0.3, CAMERA_DISTANCE],
+                      "intensity": {"type": "uniform", "value": FLASH_INTENSITY}}
+    else:
+        d["light"] = {"type": "sphere", "to_world": _sphere_transform(0.0, 0.3),
+                      "emitter": {"type": "area", "radiance": {
+                          "type": "uniform", "value": FLASH_INTENSITY / (math.pi * SPHERE_RADIUS**2)}}}
+    return d
+
+
+class FlashScene:
+    """The capture scene at one resolution, loaded once; render views by changing maps and light.
+
+    Args:
+        res: film and texture side length (256 default, 288 as in the paper).
+        spp: samples per pixel.
+        light_model: "point" or "sphere".
+        jitter: random positions inside pixels (independent sampler); False: the centres of a sqrt(spp)^2 grid.
+    """
+
+    def __init__(self, res: int = 256, spp: int = 1, light_model: str = "point", jitter: bool = True):
+        if res < 1 or spp < 1:
+            raise ValueError(f"res and spp must be positive, got {res}, {spp}")
+        self.res, self.spp, self.light_model, self.jitter = int(res), int(spp), light_model, bool(jitter)
+        self.scene = mi.load_dict(scene_dict(self.res, self.spp, light_model, self.jitter))
+        self.params = mi.traverse(self.scene)
+        self._plane_keys = ["plane.bsdf.tex_" + c for c in _bsdf.CHANNELS]
+        self._light_key = "light.position" if light_model == "point" else "light.to_world"
+
+    def set_light(self, x: float, y: float) -> None:
+        """Move the flash to (x, y, D) (not applied until the next render/update)."""
+        if self.light_model == "point":
+            self.params[self._light_key] = mi.Point3f(x, y, CAMERA_DISTANCE)
+        else:
+            self.params[self._light_key] = _sphere_transform(x, y)
+
+    def set_planes(self, planes: list) -> None:
+        """Set the textures: 10 channel planes (mi.Float, res*res each) already in screen space."""
+        if len(planes) != len(self._plane_keys) or any(dr.width(p) != self.res * self.res for p in planes):
+            raise ValueError(f"need {len(self._plane_keys)} planes of {self.res}^2 texels")
+        for key, plane in zip(self._plane_keys, planes):
+            self.params[key] = plane
+
+    def render_planes(self, planes: list, light_xy: tuple[float, float], seed: int, clip: bool = True) -> np.ndarray:
+        """Render screen-space channel planes under a flash at light_xy.
+
+        Args:
+            planes: 10 mi.Float channel planes of res^2 texels.
+            light_xy: flash offset in the camera plane.
+            seed: sampler seed.
+            clip: clip to [0, 1] (the LDR output); False gives the raw radiance (tests, benchmarks).
+
+        Returns:
+            (res, res, 3) float32 linear RGB, numpy row 0 = image top.
+        """
+        self.set_planes(planes)
+        self.set_light(*light_xy)
+        self.params.update()
+        img = np.asarray(mi.render(self.scene, params=self.params, seed=int(seed), spp=self.spp), dtype=np.float32)
+        return np.clip(img, 0.0, 1.0) if clip else img
+
+    def render_view(self, base_planes: list, base_res: int, view: ViewParams) -> tuple[np.ndarray, list]:
+        """Transform base maps into ``view`` and render them.
+
+        Args:
+            base_planes: 10 mi.Float of base_res^2 texels: tileable base maps (see :func:`planes_of`).
+            base_res: side length of the base maps.
+            view: light offset, texture transform and seed.
+
+        Returns:
+            image (res, res, 3) float32 in [0, 1]; the screen-space planes it was rendered with.
+        """
+        planes = transform_planes(base_planes, base_res, view, self.res)
+        return self.render_planes(planes, (view.light_x, view.light_y), view.seed), planes
+
+    def render_maps(self, maps: SVBRDF, view: ViewParams, clip: bool = True) -> np.ndarray:
+        """Render screen-space numpy maps (already aligned: (res, res, C)) under the view's light and seed."""
+        if maps.normal.shape[:2] != (self.res, self.res):
+            raise ValueError(f"maps are {maps.normal.shape[:2]}, the scene renders {self.res}^2")
+        return self.render_planes(planes_of(maps), (view.light_x, view.light_y), view.seed, clip)

@@ -1,0 +1,192 @@
+"""Per-view random parameters, and the numpy transform of tileable base maps into a view.
+
+A view is a flash photograph of the material plane under a random light offset and a random texture transform
+(zoom, rotation, shift). The maps that go with the view are the base maps under the same transform, normals
+rotated into screen space; :func:`transform_maps` computes them, and the renderer uses exactly those maps as
+its textures (one texel per film pixel, nearest lookup), so they line up with the render pixel for pixel by
+construction.
+
+View distribution (:func:`draw_view`), all independent:
+
+* light offset (x, y) in the camera plane z = D, in world units (the plane spans [-1, 1]^2):
+  radius sqrt(U(R_MIN^2, R_MAX^2)) (uniform over the annulus), angle U(0, 2 pi). For a flat mirror the
+  highlight is at the midpoint (x/2, y/2) of camera and light, so R_MAX = 0.7 keeps its centre within 0.35 of
+  the image centre (the middle ~35 % of the half-width). R_MIN = 0.1 keeps a sphere flash (radius <= 0.05) off
+  the camera's frustum (a sphere at lateral offset rho blocks camera rays unless rho > ~1.5 radius).
+* zoom: tiles of the base map across the picture width, log-uniform in [ZOOM_MIN, ZOOM_MAX] = [0.7, 1.4]
+  (mild magnification to mild minification; minified views are box-prefiltered by supersampling).
+  The transform runs as one drjit kernel (numpy fancy-index gathers took ~40 ms per 256^2 view here, the
+  whole view budget).
+* rotation: U(0, 2 pi) counter-clockwise on screen.
+* shift: U(0, 1)^2 tiles (so views do not all share the tile's corner at the picture centre).
+* seed: a 31-bit seed for ``mi.render``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from materials.maps import SVBRDF
+
+from ..seeds import rng_for
+from .bsdf import CHANNELS, dr, mi, pack_maps
+
+R_MIN, R_MAX = 0.1, 0.7
+ZOOM_MIN, ZOOM_MAX = 0.7, 1.4
+#: field order of :meth:`ViewParams.as_array` (the per-view row stored in a renders store).
+VIEW_FIELDS = ("light_x", "light_y", "zoom", "rotation", "shift_u", "shift_v", "seed")
+
+
+@dataclass(frozen=True)
+class ViewParams:
+    """One view.
+
+    Attributes:
+        light_x, light_y: flash offset from the camera in the camera plane (world units; plane half-size 1).
+        zoom: base-map tiles across the picture width.
+        rotation: counter-clockwise rotation of the material on screen, radians.
+        shift_u, shift_v: texture offset in tiles (u right, v up).
+        seed: sampler seed for ``mi.render`` (< 2**31).
+    """
+
+    light_x: float = 0.0
+    light_y: float = 0.3
+    zoom: float = 1.0
+    rotation: float = 0.0
+    shift_u: float = 0.0
+    shift_v: float = 0.0
+    seed: int = 0
+
+    def as_array(self) -> np.ndarray:
+        """(7,) float64 in :data:`VIEW_FIELDS` order (seed < 2**31 is exact in float64)."""
+        return np.array([getattr(self, f) for f in VIEW_FIELDS], np.float64)
+
+    @classmethod
+    def from_array(cls, a) -> "ViewParams":
+        vals = dict(zip(VIEW_FIELDS, (float(x) for x in a)))
+        vals["seed"] = int(vals["seed"])
+        return cls(**vals)
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def draw_view(rng: np.random.Generator) -> ViewParams:
+    """Draw one view from the distribution of the module docstring."""
+    rho = math.sqrt(rng.uniform(R_MIN**2, R_MAX**2))
+    phi = rng.uniform(0.0, 2 * math.pi)
+    zoom = math.exp(rng.uniform(math.log(ZOOM_MIN), math.log(ZOOM_MAX)))
+    return ViewParams(
+        light_x=rho * math.cos(phi),
+        light_y=rho * math.sin(phi),
+        zoom=zoom,
+        rotation=rng.uniform(0.0, 2 * math.pi),
+        shift_u=rng.uniform(0.0, 1.0),
+        shift_v=rng.uniform(0.0, 1.0),
+        seed=int(rng.integers(0, 2**31)),
+    )
+
+
+def draw_views(master_seed: int, sample_index: int, n_views: int) -> list[ViewParams]:
+    """The views of one SVBRDF: view k is a pure function of (master seed, sample index, k)."""
+    return [draw_view(rng_for(master_seed, "render", sample_index, k)) for k in range(n_views)]
+
+
+def supersampling(view: ViewParams, res: int, base: int) -> int:
+    """Subsamples per axis: ceil(base texels per output pixel), at least 1 (a box prefilter when minifying)."""
+    return max(1, math.ceil(view.zoom * base / res - 1e-9))
+
+
+def transform_planes(base_planes: list, base: int, view: ViewParams, res: int) -> list:
+    """Transform base maps (the BSDF's channel planes) into a view, in one drjit kernel.
+
+    Per output pixel: ss x ss subsamples (see :func:`supersampling`), each a bilinear, periodically wrapped
+    lookup of the base maps at ``texture = zoom * R(-rotation) picture + shift`` (so the material appears
+    rotated by +rotation on screen), averaged; then the normal's xy is rotated by ``rotation`` and renormalised
+    (the gradient of a rotated height field rotates with it; zoom scales the surface itself, so slopes do not
+    change), the other maps are clipped to [0, 1]. View values enter as opaque variables: one compiled kernel
+    serves every view of a given (res, base, ss); the subsample loop is unrolled in Python, so the average
+    needs no reduction kernel.
+
+    Args:
+        base_planes: 10 mi.Float of width base * base (:func:`pipeline.render.bsdf.pack_maps` planes).
+        base: side length of the square base maps.
+        view: the view.
+        res: output side length.
+
+    Returns:
+        10 evaluated mi.Float of width res * res, numpy row 0 = image top.
+    """
+    ss = supersampling(view, res, base)
+    pix = dr.arange(mi.UInt32, res * res)
+    row = pix // res
+    col = pix - row * res
+    c = dr.opaque(mi.Float, math.cos(view.rotation))
+    s = dr.opaque(mi.Float, math.sin(view.rotation))
+    zoom = dr.opaque(mi.Float, view.zoom)
+    su = dr.opaque(mi.Float, view.shift_u)
+    sv = dr.opaque(mi.Float, view.shift_v)
+    acc = [mi.Float(0.0) for _ in CHANNELS]
+    for i in range(ss):
+        for j in range(ss):
+            # picture coordinates in picture widths, origin at the centre, x right, y up
+            x = (mi.Float(col) + (j + 0.5) / ss) / res - 0.5
+            y = 0.5 - (mi.Float(row) + (i + 0.5) / ss) / res
+            tu = zoom * (c * x + s * y) + su
+            tv = zoom * (-s * x + c * y) + sv
+            # texel centres at integers; the identity view (zoom 1, no rotation/shift, res == base) hits them
+            cols = tu * base - 0.5 + base / 2
+            rows = -tv * base - 0.5 + base / 2
+            cols = cols - base * dr.floor(cols / base)  # wrap into [0, base)
+            rows = rows - base * dr.floor(rows / base)
+            c0f = dr.floor(cols)
+            r0f = dr.floor(rows)
+            fc = cols - c0f
+            fr = rows - r0f
+            c0 = mi.UInt32(dr.clip(mi.Int32(c0f), 0, base - 1))  # clip: float rounding can give exactly `base`
+            r0 = mi.UInt32(dr.clip(mi.Int32(r0f), 0, base - 1))
+            c1 = dr.select(c0 + 1 == base, 0, c0 + 1)
+            r1 = dr.select(r0 + 1 == base, 0, r0 + 1)
+            corners = ((r0 * base + c0, (1 - fr) * (1 - fc)), (r0 * base + c1, (1 - fr) * fc),
+                       (r1 * base + c0, fr * (1 - fc)), (r1 * base + c1, fr * fc))
+            for k, plane in enumerate(base_planes):
+                for idx, w in corners:
+                    acc[k] = dr.fma(dr.gather(mi.Float, plane, idx), w, acc[k])
+    if ss > 1:
+        acc = [a * (1.0 / (ss * ss)) for a in acc]
+    n = dr.normalize(mi.Vector3f(c * acc[0] - s * acc[1], s * acc[0] + c * acc[1], dr.maximum(acc[2], 1e-4)))
+    out = [n.x, n.y, n.z] + [dr.clip(a, 0.0, 1.0) for a in acc[3:]]
+    dr.eval(*out)
+    return out
+
+
+def planes_of(m: SVBRDF) -> list:
+    """numpy SVBRDF (H, W, C) -> 10 mi.Float channel planes."""
+    return [mi.Float(p) for p in pack_maps(m.normal, m.diffuse, m.specular, m.roughness)]
+
+
+def svbrdf_of(planes: list, res: int) -> SVBRDF:
+    """10 channel planes (mi.Float or numpy, res*res each) -> numpy SVBRDF of (res, res, C) float32 maps."""
+    a = np.stack([np.asarray(p, np.float32) for p in planes], axis=-1).reshape(res, res, len(CHANNELS))
+    return SVBRDF(normal=a[..., 0:3].copy(), diffuse=a[..., 3:6].copy(), specular=a[..., 6:9].copy(),
+                  roughness=a[..., 9:10].copy())
+
+
+def transform_maps(base: SVBRDF, view: ViewParams, res: int) -> SVBRDF:
+    """Base maps under a view's transform (numpy in, numpy out); see :func:`transform_planes`.
+
+    Args:
+        base: (B, B, C) square tileable maps.
+        view: the view.
+        res: output side length.
+
+    Returns:
+        SVBRDF with (res, res, C) float32 maps in screen space (numpy row 0 = image top), exactly the textures
+        the renderer uses for this view.
+    """
+    b = base.normal.shape[0]
+    if base.normal.shape[:2] != (b, b):
+        raise ValueError(f"base maps must be square, got {base.normal.shape[:2]}")
+    return svbrdf_of(transform_planes(planes_of(base), b, view, res), res)
