@@ -32,16 +32,21 @@ def worley(tex: Tex, n: int, jitter: float = 0.9, aspect: float = 1.0):
     jx = (0.5 + jitter * (g.random((ny, nx), dtype=F32) - 0.5)).astype(F32)
     jy = (0.5 + jitter * (g.random((ny, nx), dtype=F32) - 0.5)).astype(F32)
     rnd = g.random(nx * ny, dtype=F32)
+    # a random whole-grid offset: Voronoi edges crowd near the grid lines of a jittered grid, and the
+    # wrap seam must not sit on one more often than any interior line of pixels does
+    off_x, off_y = g.random(2)
     # cell grid padded by one cell on every side with wrapped copies: neighbour lookups become flat
     # `take`s at a constant offset from each pixel's own cell (much faster than 2-D fancy indexing)
     pad = lambda a: np.pad(a, 1, mode="wrap").ravel()  # noqa: E731
     jxp, jyp = pad(jx), pad(jy)
     idp = pad(np.arange(nx * ny, dtype=np.int32).reshape(ny, nx))
     t = (np.arange(tex.size, dtype=F32) + 0.5) / tex.size
-    xs, ys = t * nx, t * ny
+    xs, ys = t * nx + F32(off_x), t * ny + F32(off_y)
     cx, cy = np.floor(xs).astype(np.int32), np.floor(ys).astype(np.int32)
     fx = (xs - cx)[None, :]  # position inside the cell, separable in rows and columns
     fy = (ys - cy)[:, None]
+    cx[cx >= nx] -= nx  # offset coordinates run past the last cell: wrap to the first
+    cy[cy >= ny] -= ny
     base = (cy[:, None] + 1) * (nx + 2) + (cx[None, :] + 1)
     f1 = np.full(base.shape, 1e9, F32)
     f2 = np.full(base.shape, 1e9, F32)
@@ -80,9 +85,11 @@ def tiles(tex: Tex, nx: int, ny: int, stagger: float = 0.0, gap: float = 0.01, b
     ny = max(1, int(round(ny)))
     if stagger > 0 and ny % 2:
         ny += 1
-    y = tex.v * ny
+    # grid shifted by half a tile so that the wrap seam crosses tiles, not a grout line: a grout line
+    # sampled exactly on a pixel boundary would be a (harmless but measurable) special place
+    y = tex.v * ny + 0.5
     row = np.floor(y).astype(np.int32)
-    x = tex.u * nx + stagger * (row % 2)
+    x = tex.u * nx + 0.5 + stagger * (row % 2)
     col = np.floor(x).astype(np.int32) % nx
     fx = (x - np.floor(x)).astype(F32)
     fy = (y - row).astype(F32)
@@ -130,12 +137,19 @@ def weave(tex: Tex, threads: int, pattern: str = "plain", gap: float = 0.15, twi
     n = max(1, int(round(threads)))
     k = 2 if pattern == "plain" else twill + 1
     n = -(-n // k) * k  # a whole number of repeats across the texture, so the weave wraps
-    x = tex.u * n
-    y = tex.v * n
+    # threads narrower than ~4 px alias (2 px per thread can sample the same phase everywhere):
+    # supersample and box-filter down
+    ss = min(4, -(-4 * n // tex.size))
+    m = tex.size * ss
+    t = (np.arange(m, dtype=F32) + 0.5) / m
+    # a quarter thread off, so the seam is not on a thread boundary (see tiles) and, at 2 px per
+    # thread, the two pixels of a thread see different halves of its profile
+    x = t[None, :] * n + 0.25
+    y = t[:, None] * n + 0.25
     i = np.floor(x).astype(np.int32)
     j = np.floor(y).astype(np.int32)
-    fx = x - i
-    fy = y - j
+    fx = np.broadcast_to(x - i, (m, m))
+    fy = np.broadcast_to(y - j, (m, m))
     if pattern == "plain":
         top = (i + j) % 2 == 0
     elif pattern == "satin":
@@ -153,6 +167,10 @@ def weave(tex: Tex, threads: int, pattern: str = "plain", gap: float = 0.15, twi
     height = np.where(top, np.maximum(hw, 0.5 * hf), np.maximum(hf, 0.5 * hw)).astype(F32)
     warp_vis = np.where(top, hw >= 0.5 * hf, hw > hf)
     along = np.where(warp_vis, fy, fx).astype(F32)
+    if ss > 1:
+        box = lambda a: a.reshape(tex.size, ss, tex.size, ss).mean((1, 3))  # noqa: E731
+        height, along = box(height).astype(F32), box(along).astype(F32)
+        warp_vis = box(warp_vis.astype(F32)) >= 0.5
     return height, warp_vis, along
 
 

@@ -39,3 +39,27 @@ def svgen_cli():
         return code, err.getvalue() + out.getvalue()
 
     return run
+
+
+# --- materials (tests/test_materials_*.py) ---
+
+def dump_maps(maps, tag: str) -> str:
+    """Save an SVBRDF's maps as PNGs in a fresh temp dir (for failing image checks); returns the dir."""
+    import tempfile
+
+    from PIL import Image
+
+    d = Path(tempfile.mkdtemp(prefix=f"svgen-{tag.replace('/', '_')}-"))
+    for name, a in maps.as_dict().items():
+        a = (a + 1) / 2 if name == "normal" else a
+        a = np.repeat(a, 3, -1) if a.shape[-1] == 1 else a
+        Image.fromarray((np.clip(a, 0, 1) * 255).astype(np.uint8)).save(d / f"{name}.png")
+    return str(d)
+
+
+@pytest.fixture(scope="session")
+def material_presets():
+    """Every registered preset (materials library), sorted by name."""
+    from materials import presets
+
+    return presets()

@@ -63,6 +63,6 @@ register_preset("fabric/tweed_check", "fabric", {
     fixed={"pattern": 1})
 register_preset("fabric/canvas_stained", "fabric", {
     **rgb("warp", (0.7, 0.65, 0.5), (-0.15, 0.1)),
-    "stains": (0.5, 0.2, 1.0), "threads": (32, 20, 50), "gap": (0.1, 0.0, 0.3), "depth": (0.7, 0.4, 1.0),
+    "stains": (0.5, 0.2, 1.0), "threads": (24, 16, 40), "gap": (0.1, 0.0, 0.3), "depth": (0.7, 0.4, 1.0),
     "color_var": (0.15, 0.0, 0.4), "roughness": (0.9, 0.75, 1.0)},
     fixed={"pattern": 0, "weft_r": 0.68, "weft_g": 0.62, "weft_b": 0.48})

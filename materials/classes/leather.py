@@ -38,11 +38,13 @@ def leather(p: dict, size: int, rng: np.random.Generator):
     dome = np.sqrt(np.clip(1 - f1 * 1.1, 0, 1))
     cw = 1.0 / max(p["cells"], 1)  # cell width: creases scale with the cells
     h = cw * 0.08 * p["cell_depth"] * (dome - crease) + 0.004 * p["wrinkles"] * wr
-    h = h - 0.0003 * p["pores"] * np.clip(pore - 1.2, 0, None)
+    porem = np.clip(pore - 1.0, 0, None)
+    h = h - 0.0008 * p["pores"] * porem
     top = np.clip(wr * 0.5 + dome - 0.6, 0, 1) * p["wear"]
     col = tint(base, blot, p["color_var"]) * (1 - p["crease_dark"] * crease)[..., None]
     col = lerp(col, np.minimum(1, base * 1.8 + 0.03), top * 0.6)
-    r = p["roughness"] + p["rough_var"] * (crease - 0.3) - 0.25 * top
+    col = col * (1 - 0.3 * p["pores"] * porem)[..., None]  # pores trap dirt and shadow
+    r = p["roughness"] + p["rough_var"] * (crease - 0.3) - 0.25 * top + 0.1 * p["pores"] * porem
     return finish(h, 1.0, col, p["specular"], np.clip(r, 0.05, 1))
 
 

@@ -14,7 +14,7 @@ PARAMS = [
     *rgb_params("oxide", (0.35, 0.15, 0.06), "colour of rust / patina"),
     P("roughness", 0.25, 0.02, 0.8, "roughness of the bare metal"),
     P("brushed", 0.0, 0.0, 1.0, "strength of directional brushing"),
-    P("brush_angle", 0.0, 0.0, 3.1416, "brushing direction (rad)"),
+    P("brush_angle", 0.0, 0.0, 1.5708, "brushing direction (rad)"),
     P("scratch_count", 0.0, 0.0, 400.0, "number of scratches", "int"),
     P("scratch_depth", 0.5, 0.0, 1.0, "scratch depth"),
     P("hammered", 0.0, 0.0, 1.0, "depth of hammer dents"),
@@ -53,7 +53,7 @@ def metal(p: dict, size: int, rng: np.random.Generator):
 
 register_preset("metal/brushed_steel", "metal", {
     **rgb("metal", (0.78, 0.78, 0.8), (-0.15, 0.1)),
-    "brushed": (0.8, 0.4, 1.0), "brush_angle": (0.0, 0.0, 3.14), "roughness": (0.3, 0.15, 0.5),
+    "brushed": (0.8, 0.4, 1.0), "brush_angle": (0.0, 0.0, 1.57), "roughness": (0.3, 0.15, 0.5),
     "scratch_count": (40, 0, 150), "rough_var": (0.1, 0.0, 0.3)})
 register_preset("metal/polished_gold", "metal", {
     **rgb("metal", (1.0, 0.86, 0.57), (-0.1, 0.0)),
@@ -65,8 +65,8 @@ register_preset("metal/hammered_copper", "metal", {
     "oxide": (0.15, 0.0, 0.45), "oxide_scale": (0.15, 0.05, 0.4)},
     fixed=rgb_fixed("oxide", (0.2, 0.45, 0.35)))
 register_preset("metal/rusty_iron", "metal", {
-    **rgb("metal", (0.56, 0.57, 0.58), (-0.1, 0.1)),
-    "oxide": (0.55, 0.3, 0.85), "oxide_scale": (0.2, 0.08, 0.5), **rgb("oxide", (0.42, 0.18, 0.07), (-0.1, 0.1)),
+    **rgb("metal", (0.77, 0.78, 0.78), (-0.1, 0.1)),
+    "oxide": (0.55, 0.3, 0.85), "oxide_scale": (0.2, 0.08, 0.5), **rgb("oxide", (0.42, 0.18, 0.07), (-0.07, 0.2)),
     "roughness": (0.45, 0.25, 0.7), "scratch_count": (30, 0, 120)},
     fixed={"diffuse": 0.03})
 register_preset("metal/aluminium_plate", "metal", {

@@ -17,7 +17,7 @@ PARAMS = [
     P("orange_peel", 0.3, 0.0, 1.0, "fine bumpiness of sprayed paint"),
     P("peel_scale", 0.03, 0.01, 0.1, "orange-peel feature size (texture widths)"),
     P("brush", 0.0, 0.0, 1.0, "depth of brush strokes"),
-    P("brush_angle", 0.0, 0.0, 3.1416, "brush direction (rad)"),
+    P("brush_angle", 0.0, 0.0, 1.5708, "brush direction (rad; half a turn is the same brushing)"),
     P("chips", 0.0, 0.0, 1.0, "area chipped off"),
     P("chip_scale", 0.15, 0.03, 0.5, "chip size (texture widths)"),
     P("dirt", 0.0, 0.0, 1.0, "darkening dirt in blotches"),
@@ -65,7 +65,7 @@ register_preset("paint/chipped_blue", "paint", {
     fixed={"orange_peel": 0.2})
 register_preset("paint/brushed_white", "paint", {
     **rgb("color", (0.88, 0.87, 0.83), (-0.1, 0.1)),
-    "brush": (0.6, 0.2, 1.0), "brush_angle": (0.0, 0.0, 3.14), "roughness": (0.4, 0.2, 0.7),
+    "brush": (0.6, 0.2, 1.0), "brush_angle": (0.0, 0.0, 1.57), "roughness": (0.4, 0.2, 0.7),
     "color_var": (0.05, 0.0, 0.2), "dirt": (0.1, 0.0, 0.5)}, fixed={"orange_peel": 0.1})
 register_preset("paint/metallic_car", "paint", {
     **rgb("color", (0.1, 0.35, 0.2), (-0.1, 0.3)),

@@ -19,7 +19,7 @@ PARAMS = [
     P("smudge", 0.1, 0.0, 1.0, "greasy smudges (lower roughness blotches)"),
     P("scratch_count", 0.0, 0.0, 300.0, "number of scratches", "int"),
     P("scratch_depth", 0.5, 0.0, 1.0, "scratch depth and whiteness"),
-    P("scratch_angle", 0.5, 0.0, 3.1416, "main scratch direction (rad)"),
+    P("scratch_angle", 0.5, 0.0, 1.5708, "main scratch direction (rad)"),
     P("color_var", 0.03, 0.0, 0.4, "colour unevenness"),
     P("translucency", 0.0, 0.0, 1.0, "milky lightening of the colour (subsurface look)"),
 ]
@@ -61,6 +61,6 @@ register_preset("plastic/milky_white", "plastic", {
     "grain_scale": (0.03, 0.01, 0.06), "smudge": (0.2, 0.0, 0.6)})
 register_preset("plastic/scratched_red", "plastic", {
     **rgb("color", (0.7, 0.08, 0.06), (-0.2, 0.15)),
-    "scratch_count": (180, 80, 300), "scratch_depth": (0.6, 0.3, 1.0), "scratch_angle": (0.3, 0.0, 3.14),
+    "scratch_count": (180, 80, 300), "scratch_depth": (0.6, 0.3, 1.0), "scratch_angle": (0.3, 0.0, 1.57),
     "roughness": (0.25, 0.1, 0.5), "grain": (0.2, 0.0, 0.6), "color_var": (0.08, 0.0, 0.3),
     "specular": (0.04, 0.03, 0.06)})

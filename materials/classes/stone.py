@@ -16,7 +16,7 @@ PARAMS = [
     P("vein_scale", 0.4, 0.1, 1.0, "vein pattern size (texture widths)"),
     P("turbulence", 0.5, 0.0, 1.5, "domain warp of the veins"),
     P("speckle", 0.0, 0.0, 1.0, "granite speckle amount"),
-    P("speckle_size", 0.006, 0.002, 0.03, "speckle grain size (texture widths)"),
+    P("speckle_size", 0.008, 0.002, 0.03, "speckle grain size (texture widths)"),
     P("cells", 0, 0, 16, "stones across the texture (0: one continuous slab)", "int"),
     P("cell_gap", 0.03, 0.0, 0.1, "joint width between stones (cell widths)"),
     P("cell_round", 0.5, 0.0, 1.0, "dome of each stone"),
@@ -71,7 +71,7 @@ register_preset("stone/white_marble", "stone", {
     fixed={"bump": 0.1})
 register_preset("stone/granite_grey", "stone", {
     **rgb("color", (0.55, 0.53, 0.52), (-0.15, 0.15)), **rgb("vein", (0.1, 0.1, 0.1), (-0.05, 0.2)),
-    "speckle": (0.8, 0.4, 1.0), "speckle_size": (0.006, 0.003, 0.012), "polish": (0.4, 0.0, 0.9),
+    "speckle": (0.8, 0.4, 1.0), "speckle_size": (0.008, 0.004, 0.02), "polish": (0.4, 0.0, 0.9),
     "roughness": (0.6, 0.4, 0.8)}, fixed={"bump": 0.2})
 register_preset("stone/cobblestones", "stone", {
     **rgb("color", (0.45, 0.43, 0.4), (-0.15, 0.15)),

@@ -40,22 +40,23 @@ def wood(p: dict, size: int, rng: np.random.Generator):
     pcol = g.standard_normal(12).astype(F32)
     pshift = g.random(12).astype(F32)
 
-    x = tex.u * npl
+    x = tex.u * npl + 0.5  # the seam crosses a plank, not a groove (see patterns.tiles)
     plank = np.floor(x).astype(np.int32)
     fx = x - plank
     rings = int(round(p["rings"]))
     # rings: stripes across the plank, waved by noise; different phase per plank
-    ph = fx * rings + p["ring_distort"] * (w1 + 0.3 * w2) + poff[plank] * rings
+    ph = fx * rings + p["ring_distort"] * (w1 + 0.3 * w2) + poff[plank % npl] * rings
     ph = ph - np.floor(ph)
     sharp = 0.05 + 0.4 * (1 - p["ring_sharp"])
     late = smoothstep(0.55 - sharp, 0.55 + sharp * 0.3, ph) * (1 - smoothstep(0.9, 1.0, ph))
-    knot = np.clip(kn + pshift[plank] - 3.0 + 2.0 * p["knots"], 0, 1) * min(1.0, 20 * p["knots"])
-    col = tint(early, pcol[plank] * np.ones_like(fx), p["plank_var"])
+    knot = np.clip(kn + pshift[plank % npl] - 3.0 + 2.0 * p["knots"], 0, 1) * min(1.0, 20 * p["knots"])
+    col = tint(early, pcol[plank % npl] * np.ones_like(fx), p["plank_var"])
     col = col * (1 - p["late_dark"] * late - 0.6 * knot)[..., None]
     col = col * (1 + 0.08 * fib)[..., None]
+    porem = np.clip(pore - 0.8, 0, None)
+    col = col * (1 - 0.35 * p["pores"] * porem)[..., None]  # open pores read darker
     edge = np.minimum(fx, 1 - fx) / npl
     groove = 1 - smoothstep(0.0, max(p["plank_gap"], 1e-6), edge) if p["plank_gap"] > 0 else np.zeros_like(fx)
-    porem = np.clip(pore - 1.0, 0, None)
     h = 0.0004 * p["fibres"] * fib - 0.0006 * p["pores"] * porem - 0.003 * groove + 0.0004 * late
     col = col * (1 - 0.5 * groove)[..., None]
     v = p["varnish"]
@@ -79,7 +80,7 @@ register_preset("wood/pine_board", "wood", {
     "late_dark": (0.35, 0.15, 0.55), "fibres": (0.5, 0.2, 1.0)}, fixed={"planks": 1, "plank_gap": 0.0})
 register_preset("wood/parquet_maple", "wood", {
     **rgb("color", (0.88, 0.72, 0.52), (-0.1, 0.08)),
-    "planks": (8, 5, 12), "plank_gap": (0.003, 0.001, 0.008), "plank_var": (0.25, 0.05, 0.5),
+    "planks": (8, 5, 12), "plank_gap": (0.006, 0.003, 0.015), "plank_var": (0.25, 0.05, 0.5),
     "varnish": (0.5, 0.2, 0.9), "late_dark": (0.2, 0.05, 0.4), "rings": (20, 10, 35)})
 register_preset("wood/weathered_grey", "wood", {
     **rgb("color", (0.55, 0.52, 0.48), (-0.15, 0.1)),
