@@ -32,7 +32,7 @@ def test_pixel_centres_match_numpy(view, tmp_path):
     """
     res = 64
     maps = checker_svbrdf(res)
-    img = FlashScene(res, 1, "point", jitter=False).render_maps(maps, view, clip=False)
+    img = FlashScene(res, 1, "point", sampler="centre").render_maps(maps, view, clip=False)
     ref = render_point_flash(maps, (view.light_x, view.light_y), FLASH_INTENSITY, CAMERA_DISTANCE, subsamples=1)
     err = np.abs(img - ref).max() / ref.max()
     if err > 3e-4:
@@ -66,7 +66,7 @@ def test_reference_detects_a_wrong_formula():
     res = 32
     view = VIEWS[0]
     maps = checker_svbrdf(res)
-    img = FlashScene(res, 1, "point", jitter=False).render_maps(maps, view, clip=False)
+    img = FlashScene(res, 1, "point", sampler="centre").render_maps(maps, view, clip=False)
     wrong = maps.__class__(normal=maps.normal, diffuse=maps.diffuse, specular=maps.specular * 1.05,
                            roughness=maps.roughness)
     ref = render_point_flash(wrong, (view.light_x, view.light_y), FLASH_INTENSITY, CAMERA_DISTANCE)

@@ -39,6 +39,7 @@ CAMERA_DISTANCE = 1.0 / math.tan(math.radians(FOV_DEG / 2))
 FLASH_INTENSITY = math.pi * CAMERA_DISTANCE**2
 SPHERE_RADIUS = 0.02
 LIGHT_MODELS = ("point", "sphere")
+SAMPLERS = ("independent", "stratified", "centre")
 
 
 def scene_constants() -> dict:
@@ -51,18 +52,21 @@ def _sphere_transform(x: float, y: float):
     return mi.ScalarTransform4f().translate([x, y, CAMERA_DISTANCE]).scale(SPHERE_RADIUS)
 
 
-def scene_dict(res: int, spp: int, light_model: str = "point", jitter: bool = True) -> dict:
+def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "independent") -> dict:
     """The Mitsuba scene description (light at a default offset; views move it).
 
-    ``jitter=False`` uses a stratified sampler without jitter: spp must be a square k^2 and each pixel is
-    sampled at the centres of a k x k grid (k = 1: the pixel centre), deterministic and free of pixel noise.
+    Samplers (:data:`SAMPLERS`): "independent" (random positions in the pixel); "stratified" (one random
+    position in each cell of a k x k grid, spp = k^2); "centre" (the centres of that grid, no randomness:
+    k = 1 shades exactly the pixel centre, deterministic and free of pixel noise).
     """
     if light_model not in LIGHT_MODELS:
         raise ValueError(f"unknown light model {light_model!r}; use one of {LIGHT_MODELS}")
-    if not jitter and math.isqrt(spp) ** 2 != spp:
-        raise ValueError(f"jitter=False needs a square spp (1, 4, 9, 16 ...), got {spp}")
-    sampler = ({"type": "independent", "sample_count": spp} if jitter
-               else {"type": "stratified", "sample_count": spp, "jitter": False})
+    if sampler not in SAMPLERS:
+        raise ValueError(f"unknown sampler {sampler!r}; use one of {SAMPLERS}")
+    if sampler != "independent" and math.isqrt(spp) ** 2 != spp:
+        raise ValueError(f"sampler {sampler!r} needs a square spp (1, 4, 9, 16 ...), got {spp}")
+    sampler_dict = ({"type": "independent", "sample_count": spp} if sampler == "independent"
+                    else {"type": "stratified", "sample_count": spp, "jitter": sampler == "stratified"})
     d = {
         "type": "scene",
         "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0 if light_model == "point" else 1},
@@ -74,7 +78,7 @@ def scene_dict(res: int, spp: int, light_model: str = "point", jitter: bool = Tr
             "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, CAMERA_DISTANCE], target=[0, 0, 0], up=[0, 1, 0]),
             "film": {"type": "hdrfilm", "width": res, "height": res, "rfilter": {"type": "box"},
                      "pixel_format": "rgb", "component_format": "float32", "sample_border": False},
-            "sampler": sampler,
+            "sampler": sampler_dict,
         },
         "plane": {"type": "rectangle", "bsdf": {"type": _bsdf.PLUGIN_NAME, "width": res, "height": res}},
     }
@@ -95,14 +99,14 @@ class FlashScene:
         res: film and texture side length (256 default, 288 as in the paper).
         spp: samples per pixel.
         light_model: "point" or "sphere".
-        jitter: random positions inside pixels (independent sampler); False: the centres of a sqrt(spp)^2 grid.
+        sampler: "independent", "stratified" or "centre" (see :func:`scene_dict`).
     """
 
-    def __init__(self, res: int = 256, spp: int = 1, light_model: str = "point", jitter: bool = True):
+    def __init__(self, res: int = 256, spp: int = 1, light_model: str = "point", sampler: str = "independent"):
         if res < 1 or spp < 1:
             raise ValueError(f"res and spp must be positive, got {res}, {spp}")
-        self.res, self.spp, self.light_model, self.jitter = int(res), int(spp), light_model, bool(jitter)
-        self.scene = mi.load_dict(scene_dict(self.res, self.spp, light_model, self.jitter))
+        self.res, self.spp, self.light_model, self.sampler = int(res), int(spp), light_model, sampler
+        self.scene = mi.load_dict(scene_dict(self.res, self.spp, light_model, sampler))
         self.params = mi.traverse(self.scene)
         self._plane_keys = ["plane.bsdf.tex_" + c for c in _bsdf.CHANNELS]
         self._light_key = "light.position" if light_model == "point" else "light.to_world"
