@@ -12,7 +12,7 @@ import numpy as np
 from .noise import F32, Tex, blur
 
 
-def worley(tex: Tex, n: int, jitter: float = 0.9, aspect: float = 1.0):
+def worley(tex: Tex, n: int, jitter: float = 0.9, aspect: float = 1.0, enabled: bool = True):
     """Cellular noise on a jittered grid of ``n`` x ``round(n * aspect)`` cells, wrap-around.
 
     Args:
@@ -20,6 +20,8 @@ def worley(tex: Tex, n: int, jitter: float = 0.9, aspect: float = 1.0):
         n: cells across u (>= 1).
         jitter: 0 = regular grid, 1 = fully random point within each cell.
         aspect: rows per column count ratio (cells stretched when != 1).
+        enabled: False skips the work (a material whose parameters switch the layer off) and returns
+            f1 = f2 = 1, cell 0; the layer's seed is still drawn so later layers keep their seeds.
 
     Returns:
         f1, f2: (H, W) float32 distances to the nearest / second nearest point, in cell widths.
@@ -29,6 +31,9 @@ def worley(tex: Tex, n: int, jitter: float = 0.9, aspect: float = 1.0):
     nx = max(1, int(round(n)))
     ny = max(1, int(round(n * aspect)))
     g = tex.sub()
+    if not enabled:
+        one = np.ones((tex.size, tex.size), F32)
+        return one, one.copy(), np.zeros((tex.size, tex.size), np.int32), np.zeros(nx * ny, F32)
     jx = (0.5 + jitter * (g.random((ny, nx), dtype=F32) - 0.5)).astype(F32)
     jy = (0.5 + jitter * (g.random((ny, nx), dtype=F32) - 0.5)).astype(F32)
     rnd = g.random(nx * ny, dtype=F32)

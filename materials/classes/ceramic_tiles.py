@@ -40,7 +40,7 @@ def ceramic_tiles(p: dict, size: int, rng: np.random.Generator):
     tv = g.standard_normal(n_max).astype(F32)
     tx, ty = (g.standard_normal((2, n_max)) * 0.004).astype(F32)
     wav, dirtn = tex.fbm2(0.15, beta=3.4)
-    f1, f2, _, _ = worley(tex, 18, 1.0)
+    f1, f2, _, _ = worley(tex, 18, 1.0, enabled=p["crazing"] > 0)
     tid = t["id"]
     nx, ny = t["nx"], t["ny"]
     row, col_i = tid // nx, tid % nx

@@ -34,7 +34,7 @@ def metal(p: dict, size: int, rng: np.random.Generator):
     ox = color_param(p, "oxide")
     br = tex.fbm(0.5, beta=2.2, aniso=25.0, angle=p["brush_angle"], detail=0.6 / size)
     sc = scratches(tex, p["scratch_count"], 0.2, p["brush_angle"], 0.6)
-    f1, _, _, _ = worley(tex, p["dent_count"], 1.0)
+    f1, _, _, _ = worley(tex, p["dent_count"], 1.0, enabled=p["hammered"] > 0)
     oxf, oxd = tex.fbm2(p["oxide_scale"], beta=3.0)
     rv = tex.blobs(0.15)
 

@@ -41,7 +41,7 @@ def stone(p: dict, size: int, rng: np.random.Generator):
     b1, b2 = tex.fbm2(p["bump_scale"], beta=2.8)
     lay = tex.fbm(0.8, beta=3.0, aniso=12.0, angle=0.3)
     nc = int(round(p["cells"]))
-    f1, f2, cid, rnd = worley(tex, max(nc, 1), 0.85)
+    f1, f2, cid, rnd = worley(tex, max(nc, 1), 0.85, enabled=nc > 0)
 
     tb = 0.06 * p["turbulence"] * p["vein_scale"]
     vw = warp(vf, tb * t1, tb * t2)
