@@ -73,6 +73,16 @@ def run_cli(group: click.Group, prog: str, argv=None) -> int:
     except KeyboardInterrupt:
         click.echo(f"{prog}: interrupted", err=True)
         return 130
+    except OSError as e:  # full disk, quota, permissions: the environment, not a bug
+        import errno
+
+        hint = {errno.ENOSPC: "free space and rerun: completed chunks are kept and the run resumes",
+                errno.EDQUOT: "free quota and rerun: completed chunks are kept and the run resumes",
+                errno.EFBIG: "file size limit reached; raise it and rerun",
+                errno.EACCES: "check the permissions of the output location"}.get(e.errno, "")
+        where = f" ({e.filename})" if e.filename else ""
+        click.echo(f"{prog}: error: {e.strerror or e}{where}" + (f"; {hint}" if hint else ""), err=True)
+        return 1
     except Exception as e:  # an unexpected failure: still one line, traceback on request
         if os.environ.get("SVGEN_DEBUG"):
             raise
