@@ -1,0 +1,99 @@
+"""svtrain through its CLI: fit/eval/predict on PNG and EXR, and one-line errors for bad input."""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from pipeline.image_io import read_exr, write_exr
+from train.cli import svtrain
+from pipeline.cli import run_cli
+
+SMALL = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
+         "--set", "data.crop=32", "--set", "data.synthetic_size=40", "--set", "data.synthetic_samples=16",
+         "--set", "data.synthetic_materials=4", "--set", "data.holdout=0.5", "--set", "optim.batch_size=2",
+         "--workers", "0", "--no-compile"]
+
+
+def run(*args):
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+        code = run_cli(svtrain, "svtrain", [str(a) for a in args])
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("run")
+    code, out, err = run("fit", "--out", d, "--iterations", 3, *SMALL)
+    assert code == 0, err
+    assert json.loads(out.strip().splitlines()[-1])["step"] == 3
+    return d
+
+
+def test_eval_writes_json_and_table(run_dir, tmp_path):
+    code, out, err = run("eval", "--checkpoint", run_dir, "--out", tmp_path)
+    assert code == 0, err
+    res = json.loads((tmp_path / "eval.json").read_text())
+    for m in ("model", "input_as_diffuse", "dataset_mean"):
+        assert set(res[m]) == {"rerender", "normal", "diffuse", "roughness", "specular"}
+        assert all(np.isfinite(v) and v >= 0 for v in res[m].values())
+    assert "| model |" in (tmp_path / "eval.md").read_text()
+
+
+def test_predict_png_and_exr(run_dir, tmp_path):
+    rng = np.random.default_rng(0)
+    img = rng.uniform(0.05, 0.6, (50, 70, 3)).astype(np.float32)
+    Image.fromarray(np.round(img * 255).astype(np.uint8)).save(tmp_path / "photo.png")
+    write_exr(tmp_path / "photo.exr", img)
+    for name in ("photo.png", "photo.exr"):
+        out = tmp_path / (name + "_maps")
+        code, stdout, err = run("predict", tmp_path / name, "--checkpoint", run_dir, "--out", out)
+        assert code == 0, err
+        for m in ("normal", "diffuse", "roughness", "specular"):
+            assert Image.open(out / f"{m}.png").size == (32, 32)
+            assert read_exr(out / f"{m}.exr").shape == (32, 32, 3)
+        assert (out / "rerender.png").is_file()
+        n = read_exr(out / "normal.exr")
+        np.testing.assert_allclose(np.linalg.norm(n, axis=-1), 1, atol=1e-4)
+
+
+def test_png_is_linearised(tmp_path):
+    from train.predict import read_photo
+
+    Image.fromarray(np.full((40, 40, 3), 128, np.uint8)).save(tmp_path / "g.png")
+    assert read_photo(tmp_path / "g.png")[0, 0, 0] == pytest.approx(0.2158, abs=1e-3)  # sRGB 128 -> linear
+
+
+@pytest.mark.parametrize("case", ["missing", "not_image", "tiny", "bad_suffix", "no_checkpoint", "bad_config",
+                                  "unknown_suite", "unknown_key"])
+def test_bad_inputs_one_line(case, run_dir, tmp_path):
+    if case == "missing":
+        args = ("predict", tmp_path / "nope.png", "--checkpoint", run_dir)
+    elif case == "not_image":
+        (tmp_path / "x.png").write_text("not a png")
+        args = ("predict", tmp_path / "x.png", "--checkpoint", run_dir)
+    elif case == "tiny":
+        Image.fromarray(np.zeros((8, 300, 3), np.uint8)).save(tmp_path / "t.png")
+        args = ("predict", tmp_path / "t.png", "--checkpoint", run_dir)
+    elif case == "bad_suffix":
+        (tmp_path / "x.tif").write_bytes(b"II*\x00")
+        args = ("predict", tmp_path / "x.tif", "--checkpoint", run_dir)
+    elif case == "no_checkpoint":
+        Image.fromarray(np.zeros((40, 40, 3), np.uint8)).save(tmp_path / "ok.png")
+        args = ("predict", tmp_path / "ok.png", "--checkpoint", tmp_path / "none")
+    elif case == "bad_config":
+        args = ("fit", "--out", tmp_path, "--set", "model.levels=x")
+    elif case == "unknown_suite":
+        args = ("eval", "--checkpoint", run_dir, "--suite", "nonsense")
+    else:
+        args = ("fit", "--out", tmp_path, "--set", "model.nope=1")
+    code, out, err = run(*args)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("svtrain: error:"), err
+    assert "Traceback" not in err
