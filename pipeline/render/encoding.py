@@ -67,6 +67,31 @@ def encode_srgb8(linear: np.ndarray) -> np.ndarray:
     return c.astype(np.uint8)
 
 
+class DrjitEncoder:
+    """The same 8-bit sRGB encoding as :func:`encode_srgb8`, run by drjit on a rendered image that is still a
+    drjit array: fused into one multithreaded kernel, no float copy to numpy (~1 ms instead of ~5 ms CPU)."""
+
+    def __init__(self):
+        from .bsdf import mi
+
+        codes, thr = _bucket_codes()
+        self._mi = mi
+        self._codes = mi.UInt32(codes.astype(np.uint32))
+        self._thr = mi.Float(thr)
+
+    def __call__(self, linear) -> np.ndarray:
+        """drjit Float array (any width) of linear values -> numpy uint8 codes (same order)."""
+        from .bsdf import dr
+
+        mi = self._mi
+        x = dr.clip(mi.Float(linear), 0.0, 1.0)
+        b = mi.UInt32(dr.maximum(mi.Int32(x * _BUCKETS) - 1, 0))  # same bucket rule as encode_srgb8
+        c = dr.gather(mi.UInt32, self._codes, b)
+        c += mi.UInt32(x >= dr.gather(mi.Float, self._thr, c))
+        c += mi.UInt32(x >= dr.gather(mi.Float, self._thr, c))
+        return np.asarray(c).astype(np.uint8)
+
+
 def decode_srgb8(codes: np.ndarray) -> np.ndarray:
     """uint8 sRGB codes -> linear float32 in [0, 1]."""
     return decode_lut()[np.asarray(codes, np.uint8)]

@@ -110,6 +110,7 @@ class FlashScene:
         self.params = mi.traverse(self.scene)
         self._plane_keys = ["plane.bsdf.tex_" + c for c in _bsdf.CHANNELS]
         self._light_key = "light.position" if light_model == "point" else "light.to_world"
+        self._encoder = None
 
     def set_light(self, x: float, y: float) -> None:
         """Move the flash to (x, y, D) (not applied until the next render/update)."""
@@ -142,6 +143,19 @@ class FlashScene:
         self.params.update()
         img = np.asarray(mi.render(self.scene, params=self.params, seed=int(seed), spp=self.spp), dtype=np.float32)
         return np.clip(img, 0.0, 1.0) if clip else img
+
+    def render_planes_srgb8(self, planes: list, light_xy: tuple[float, float], seed: int) -> np.ndarray:
+        """As :meth:`render_planes` (clipped), but returns the stored encoding: (res, res, 3) uint8 sRGB codes,
+        encoded by drjit before the image leaves it (see :class:`pipeline.render.encoding.DrjitEncoder`)."""
+        from .encoding import DrjitEncoder
+
+        if self._encoder is None:
+            self._encoder = DrjitEncoder()
+        self.set_planes(planes)
+        self.set_light(*light_xy)
+        self.params.update()
+        img = mi.render(self.scene, params=self.params, seed=int(seed), spp=self.spp)
+        return self._encoder(img.array).reshape(self.res, self.res, 3)
 
     def render_view(self, base_planes: list, base_res: int, view: ViewParams) -> tuple[np.ndarray, list]:
         """Transform base maps into ``view`` and render them.

@@ -1,0 +1,173 @@
+"""`svgen render` as a stage: every SVBRDF of a variants/blends store -> V flash views -> a renders store.
+
+One dask task renders one chunk of SVBRDFs (all their views) and writes that whole chunk. A task is a pure
+function of (config, chunk id, input bytes): view k of SVBRDF s is drawn from derive_seed(seed, "render", s, k),
+the render is per pixel (no cross-pixel reduction, so drjit's thread count does not change a bit), and the
+image encoding is a table lookup; hence the same bytes for any number of workers, local or distributed.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config import PRESETS, as_dict
+from ..errors import ConfigError, StoreError
+from ..log import get_logger
+from ..parallel import run_chunks
+from ..store import StoreWriter, write_chunk
+from ..svbrdf_store import KINDS, SVBRDFStore
+
+log = get_logger(__name__)
+
+
+@dataclass(frozen=True)
+class RenderConfig:
+    """`svgen render`: flash photographs of every SVBRDF of a variants or blends store."""
+
+    views: int = 10
+    """Views per SVBRDF (the paper: 10), each with its own light offset, zoom, rotation, shift and seed."""
+    res: int = 256
+    """Render resolution (square, 16..2048); the paper renders 288 and crops 256 at training time."""
+    spp: int = 1
+    """Samples per pixel (benchmarks/bench_render_quality.py: 1 pixel-centre sample is within 0.2 % RMSE of a
+    converged sphere-light reference)."""
+    light: str = "point"
+    """Flash model: "point", or "sphere" (radius 0.02, the paper's light)."""
+    sampler: str = "centre"
+    """Pixel sampling: "centre" (deterministic pixel centres; spp a square), "stratified", "independent"."""
+    seed: int = 0
+    """Master seed; view k of SVBRDF s uses derive_seed(seed, "render", s, k)."""
+    chunk: int = 2
+    """SVBRDFs per zarr chunk (one dask task renders and writes one chunk: chunk * views images)."""
+
+    def check(self) -> "RenderConfig":
+        from .scene import LIGHT_MODELS, SAMPLERS
+
+        for name in ("views", "spp", "chunk"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or v < 1:
+                raise ConfigError(f"{name} must be a positive integer, got {v!r}")
+        if not isinstance(self.res, int) or not 16 <= self.res <= 2048:
+            raise ConfigError(f"res must be an integer in [16, 2048], got {self.res!r}")
+        if self.light not in LIGHT_MODELS:
+            raise ConfigError(f"unknown light model {self.light!r}; use one of {', '.join(LIGHT_MODELS)}")
+        if self.sampler not in SAMPLERS:
+            raise ConfigError(f"unknown sampler {self.sampler!r}; use one of {', '.join(SAMPLERS)}")
+        if self.sampler != "independent" and math.isqrt(self.spp) ** 2 != self.spp:
+            raise ConfigError(f"sampler {self.sampler!r} needs a square spp (1, 4, 9 ...), got {self.spp}")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            raise ConfigError(f"seed must be a non-negative integer, got {self.seed!r}")
+        return self
+
+
+PRESETS[RenderConfig] = {"default": {}, "tiny": {"views": 2, "res": 64}, "paper": {"views": 10, "res": 288}}
+
+_SCENES: dict[tuple, object] = {}
+_INPUTS: dict[str, SVBRDFStore] = {}
+
+
+def _scene(res: int, spp: int, light: str, sampler: str):
+    """The worker process's scene for these settings: loaded once, reused by every task (no recompilation)."""
+    from .scene import FlashScene
+
+    key = (res, spp, light, sampler)
+    if key not in _SCENES:
+        _SCENES.clear()  # one scene per process at a time: each holds res^2 textures and a compiled kernel
+        _SCENES[key] = FlashScene(res, spp, light, sampler)
+    return _SCENES[key]
+
+
+def render_svbrdf(scene, maps, index: int, cfg: RenderConfig) -> tuple[np.ndarray, np.ndarray]:
+    """All views of one SVBRDF.
+
+    Args:
+        scene: a FlashScene matching cfg.
+        maps: (B, B, C) base maps (decoded from the store bytes).
+        index: the SVBRDF's index (seeds its views).
+        cfg: the render configuration.
+
+    Returns:
+        images (V, R, R, 3) uint8 sRGB codes; views (V, 7) float64 view parameters.
+    """
+    from .views import draw_views, planes_of, transform_planes
+
+    base = planes_of(maps)
+    b = maps.normal.shape[0]
+    views = draw_views(cfg.seed, index, cfg.views)
+    images = np.empty((cfg.views, cfg.res, cfg.res, 3), np.uint8)
+    for k, v in enumerate(views):
+        planes = transform_planes(base, b, v, cfg.res)
+        images[k] = scene.render_planes_srgb8(planes, (v.light_x, v.light_y), v.seed)
+    return images, np.stack([v.as_array() for v in views])
+
+
+def _chunk_task(c: int, threads: int, *, partial: str, input_path: str, cfg: RenderConfig, n: int) -> int:
+    """Worker: render the SVBRDFs of chunk c and write the whole chunk. Returns the number of views."""
+    from ..svbrdf_store import decode_maps
+    from .bsdf import dr
+
+    dr.set_thread_count(max(1, threads))
+    if input_path not in _INPUTS:  # opening a store costs ~6 ms: once per worker process
+        _INPUTS.clear()
+        _INPUTS[input_path] = SVBRDFStore(input_path)
+    src = _INPUTS[input_path]
+    start, stop = c * cfg.chunk, min(n, (c + 1) * cfg.chunk)
+    scene = _scene(cfg.res, cfg.spp, cfg.light, cfg.sampler)
+    raw = {k: src.group[k][start:stop] for k in ("normal", "diffuse", "specular", "roughness")}
+    seeds = src.group["seed"][start:stop]
+    images, views = [], []
+    for j in range(stop - start):
+        s = start + j
+        maps = decode_maps({k: raw[k][j] for k in raw})
+        try:
+            maps.validate(normal_tol=1e-3)
+        except ValueError as e:
+            raise StoreError(f"{input_path}: sample {s}: {e}") from None
+        im, vw = render_svbrdf(scene, maps, s, cfg)
+        images.append(im)
+        views.append(vw)
+    data = {"image": np.stack(images), "view": np.stack(views), **raw,
+            "source": np.arange(start, stop, dtype=np.int64), "source_seed": np.asarray(seeds, np.uint64)}
+    write_chunk(partial, c, start, data)
+    return (stop - start) * cfg.views
+
+
+def run_render(input_path, out, cfg: RenderConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
+    """Render every SVBRDF of the input store into a renders store at ``out`` (resuming a killed run).
+
+    Raises:
+        StoreError: input missing, of the wrong kind or with invalid maps; output exists or is being written.
+        ConfigError: bad options, unreachable scheduler.
+    """
+    from .scene import scene_constants
+    from .store import KIND, array_specs
+    from .views import R_MAX, R_MIN, ZOOM_MAX, ZOOM_MIN
+
+    cfg = cfg.check()
+    src = SVBRDFStore(input_path, KINDS)
+    n = len(src)
+    arrays = array_specs(cfg.views, cfg.res, src.size)
+    attrs = {
+        "input": {"path": str(input_path), "kind": src.kind, "n": n,
+                  "config_hash": src.attrs.get("svgen", {}).get("config_hash")},
+        "scene": {**scene_constants(), "light_model": cfg.light, "spp": cfg.spp, "sampler": cfg.sampler,
+                  "output": "linear LDR radiance clipped to [0, 1]"},
+        "view_distribution": {"light_radius": [R_MIN, R_MAX], "light_radius_law": "uniform over the annulus",
+                              "zoom": [ZOOM_MIN, ZOOM_MAX], "zoom_law": "log-uniform", "rotation": "U(0, 2 pi)",
+                              "shift": "U(0, 1)^2 tiles", "seed": "derive_seed(seed, 'render', svbrdf, view)"},
+        "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)",
+    }
+    # the input's identity is part of the config: resuming against a different input must be refused
+    config = {**as_dict(cfg), "input": attrs["input"]}
+    with StoreWriter(out, KIND, n, cfg.chunk, arrays, config, attrs) as w:
+        done = w.done_samples()
+        if done:
+            log.info("resuming %s: %d of %d SVBRDFs already rendered", out, done, n)
+        task = functools.partial(_chunk_task, partial=str(w.partial), input_path=str(input_path), cfg=cfg, n=n)
+        run_chunks(task, w.pending(), workers=workers, scheduler_address=scheduler_address, desc="render",
+                   unit="view", total_units=n * cfg.views, done_units=done * cfg.views)
+        return str(w.finalize())
+

@@ -1,0 +1,113 @@
+"""The renders store (kind "renders") and its reader.
+
+Layout (zarr v3 group; the sample axis is the SVBRDF, N of them, each with V views, chunked along N):
+
+| array          | shape              | dtype   | meaning                                                        |
+|----------------|--------------------|---------|----------------------------------------------------------------|
+| image          | (N, V, R, R, 3)    | uint8   | linear LDR render, stored sRGB-encoded (see encoding.py)       |
+| view           | (N, V, 7)          | float64 | ViewParams: light_x, light_y, zoom, rotation, shift_u, shift_v, seed |
+| normal ...     | (N, B, B, C)       | uint16  | the base maps, bytes copied from the input store (svbrdf_store) |
+| source         | (N,)               | int64   | index of the SVBRDF in the input store                         |
+| source_seed    | (N,)               | uint64  | that sample's seed in the input store                          |
+
+Aligned maps are not stored: a view's maps are recomputed from the stored base maps and the view's transform
+(:func:`pipeline.render.views.transform_maps`), which is exactly how the renderer made its textures, so they
+line up with the image pixel for pixel and cost no bytes. The decision and its numbers (bytes and read time
+per view, stored vs recomputed) are in benchmarks/results/render.json (``storage``).
+
+:class:`RendersReader` numbers views 0 .. N*V - 1 (view i is view i % V of SVBRDF i // V).
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from materials.maps import MAP_NAMES, SVBRDF
+
+from ..errors import StoreError
+from ..store import ArraySpec, open_store, read_region
+from ..svbrdf_store import decode_maps, map_specs
+from .encoding import ENCODING, decode_srgb8
+from .views import VIEW_FIELDS, ViewParams
+
+KIND = "renders"
+
+
+def array_specs(views: int, res: int, base: int) -> dict[str, ArraySpec]:
+    """ArraySpecs of a renders store (one SVBRDF = one sample)."""
+    return {
+        "image": ArraySpec((views, res, res, 3), "uint8", ENCODING, "linear sRGB primaries, stored sRGB-encoded"),
+        "view": ArraySpec((views, len(VIEW_FIELDS)), "float64", "ViewParams fields: " + ", ".join(VIEW_FIELDS)),
+        **map_specs(base),
+        "source": ArraySpec((), "int64", "index of the SVBRDF in the input store"),
+        "source_seed": ArraySpec((), "uint64", "seed of that SVBRDF in the input store"),
+    }
+
+
+class RendersReader:
+    """Read access to a renders store: images, aligned maps, view parameters, provenance.
+
+    Args:
+        path: a complete renders store.
+
+    Raises:
+        StoreError: missing, incomplete, or not a renders store.
+    """
+
+    def __init__(self, path):
+        self.path = path
+        self.group = open_store(path, KIND)
+        self.attrs = dict(self.group.attrs)
+        shape = self.group["image"].shape
+        self.n_svbrdf, self.views, self.res = int(shape[0]), int(shape[1]), int(shape[2])
+        self.base_res = int(self.group["diffuse"].shape[1])
+
+    def __len__(self) -> int:
+        return self.n_svbrdf * self.views
+
+    def _split(self, i: int) -> tuple[int, int]:
+        i = int(i)
+        if not 0 <= i < len(self):
+            raise IndexError(f"view {i} out of range [0, {len(self)})")
+        return divmod(i, self.views)
+
+    def image(self, i: int) -> np.ndarray:
+        """View i's render: (R, R, 3) float32 linear in [0, 1], numpy row 0 = image top."""
+        s, v = self._split(i)
+        return decode_srgb8(read_region(self.group, "image", s, s + 1)[0, v])
+
+    def view_params(self, i: int) -> ViewParams:
+        """View i's light offset, texture transform and seed."""
+        s, v = self._split(i)
+        return ViewParams.from_array(read_region(self.group, "view", s, s + 1)[0, v])
+
+    def base_maps(self, s: int) -> SVBRDF:
+        """Tileable base maps of SVBRDF s (float32, decoded exactly as the renderer decoded them)."""
+        return _base_maps_cached(self, int(s))
+
+    def maps(self, i: int) -> SVBRDF:
+        """View i's maps, aligned with :meth:`image` pixel for pixel: (R, R, C) float32 SVBRDF in screen space."""
+        from .views import transform_maps
+
+        s, _ = self._split(i)
+        return transform_maps(self.base_maps(s), self.view_params(i), self.res)
+
+    def source(self, i: int) -> dict:
+        """Provenance of view i: input store, SVBRDF index there, its seed, this view's index and seed."""
+        s, v = self._split(i)
+        src = self.attrs.get("input", {})
+        return {"view": int(i), "svbrdf": s, "view_in_svbrdf": v,
+                "input_store": src.get("path"), "input_kind": src.get("kind"),
+                "input_index": int(read_region(self.group, "source", s, s + 1)[0]),
+                "input_seed": int(read_region(self.group, "source_seed", s, s + 1)[0]),
+                "render_seed": self.view_params(i).seed}
+
+
+@lru_cache(maxsize=8)
+def _base_maps_cached(reader: RendersReader, s: int) -> SVBRDF:
+    # the V views of one SVBRDF share its base maps: decode them once
+    try:
+        return decode_maps({k: read_region(reader.group, k, s, s + 1)[0] for k in MAP_NAMES})
+    except KeyError as e:
+        raise StoreError(f"{reader.path}: missing base map {e}") from None
