@@ -1,12 +1,13 @@
 """End-to-end cost, size and accuracy of `svgen render` at the default quality (256^2), and the storage decision.
 
 1. A variants store of one preset per material class (9 SVBRDFs, 256^2, `svgen sample` code).
-2. cpu_s_per_view: the default run (dask, 2 local worker processes, 1 drjit thread each), end to end -- read
-   and decode maps, draw views, transform maps, render, encode, compress, write the store: CPU time of all
-   processes (this one + reaped children via RUSAGE_CHILDREN). The one-time start (cluster, imports, scene
-   load, kernel compilation; several CPU-seconds) is removed by differencing a 1-SVBRDF run and the full run.
-   Also reported: in this process (--workers 0, 2 drjit threads), where the machine's other load shows more.
-3. views_per_s: the same differencing on wall-clock time (steady state of 2 workers).
+2. cpu_s_per_view: the default setting (dask, 2 local worker processes, cores // workers = 1 drjit thread
+   each), end to end per chunk task -- read and decode maps, draw views, transform maps, render, encode,
+   compress, write the chunk: the worker process's CPU time (all its threads, zarr's I/O thread included)
+   around each task, summed over the tasks after each worker's first (which pays the one-time start: imports,
+   scene load, kernel compilation; reported separately). Also: `run_render` in this process (--workers 0,
+   2 drjit threads), start included.
+3. views_per_s: views / wall time of the whole dask run of the tasks, cluster start excluded.
 4. bytes_per_view: the finished store's bytes on disk / views, and per array.
 5. Storage decision: bytes and read time per view of (a) aligned maps stored per view (uint16 like the base
    maps, or uint8) vs (b) recomputed by RendersReader.maps from the stored base maps.
@@ -56,6 +57,14 @@ def zstd_bytes(a: np.ndarray) -> int:
     return len(Zstd(level=5).encode(np.ascontiguousarray(a)))
 
 
+def _timed(task, c: int, threads: int) -> dict:
+    """Run one chunk task in a worker and measure the worker process's CPU time around it."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    views = task(c, threads)
+    return {"pid": os.getpid(), "t0": t0, "views": views, "cpu": time.process_time() - c0,
+            "wall": time.perf_counter() - t0}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="3 SVBRDFs, no reference (smoke run)")
@@ -86,22 +95,30 @@ def main(argv=None) -> int:
         wall = time.perf_counter() - w0
         inproc_cpu_s_per_view = cpu / n_views  # scene already loaded and compiled in this process (steady state)
 
-        # 2-3. dask, 2 local workers: a 1-SVBRDF run and the full run; the difference is the steady state
-        import resource
+        # 2-3. dask, 2 local workers, CPU time measured inside the workers around each task
+        from distributed import as_completed
 
-        def cpu_all():
-            a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-            return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
+        from pipeline.parallel import dask_client, threads_per_worker
+        from pipeline.render.stage import chunk_task, render_writer
 
-        c0, w0 = cpu_all(), time.perf_counter()
-        run_render(one, tmp / "one_dask.zarr", cfg, workers=2)
-        cpu1, wall1 = cpu_all() - c0, time.perf_counter() - w0
         out2 = tmp / "renders_dask.zarr"
-        c0, w0 = cpu_all(), time.perf_counter()
-        run_render(variants, out2, cfg, workers=2)
-        cpu2, wall_dask = cpu_all() - c0, time.perf_counter() - w0
-        dask_cpu_s_per_view = (cpu2 - cpu1) / (n_views - cfg.views)
-        dask_views_per_s = (n_views - cfg.views) / max(wall_dask - wall1, 1e-9)
+        writer, n = render_writer(variants, out2, cfg)
+        with writer as w, dask_client(2) as client:
+            task = chunk_task(w, variants, cfg, n)
+            threads = threads_per_worker(client)
+            w0 = time.perf_counter()
+            futs = client.map(_timed, [task] * n, list(range(n)), [threads] * n, pure=False)
+            stats = [f.result() for f in as_completed(futs)]
+            wall_dask = time.perf_counter() - w0
+            w.finalize()
+        by_pid: dict[int, list] = {}
+        for st in sorted(stats, key=lambda x: x["t0"]):
+            by_pid.setdefault(st["pid"], []).append(st)
+        firsts = [v[0] for v in by_pid.values()]
+        steady = [x for v in by_pid.values() for x in v[1:]]
+        dask_cpu_s_per_view = sum(x["cpu"] for x in steady) / sum(x["views"] for x in steady)
+        first_task_extra_cpu = float(np.mean([x["cpu"] - dask_cpu_s_per_view * x["views"] for x in firsts]))
+        dask_views_per_s = n_views / wall_dask
         same = all((out / a).exists() for a in ("image",))
         r1, r2 = RendersReader(out), RendersReader(out2)
         identical = bool(np.array_equal(r1.group["image"][:], r2.group["image"][:]))
@@ -168,9 +185,9 @@ def main(argv=None) -> int:
                                                          "sampler": cfg.sampler, "views": cfg.views},
             "svbrdfs": len(presets), "views": n_views,
             "cpu_s_per_view": dask_cpu_s_per_view,
-            "cpu_s_per_view_note": "dask, 2 local workers x 1 drjit thread, all processes, steady state (start removed)",
-            "views_per_s": dask_views_per_s, "views_per_s_note": "dask, 2 local workers, steady state",
-            "dask_cold_start_s": wall1 - cfg.views / dask_views_per_s,
+            "cpu_s_per_view_note": "dask, 2 local workers x 1 drjit thread: worker CPU around each chunk task, first task per worker excluded",
+            "views_per_s": dask_views_per_s, "views_per_s_note": "dask, 2 local workers, tasks submitted to a running cluster (start excluded)",
+            "cpu_s_one_time_start_per_worker": first_task_extra_cpu, "drjit_threads_per_worker": threads,
             "cpu_s_per_view_in_process": inproc_cpu_s_per_view, "views_per_s_in_process": n_views / wall,
             "cpu_s_one_time_start_in_process": cpu_first_chunk - inproc_cpu_s_per_view * cfg.views,
             "dask_store_identical_to_in_process": identical and same,

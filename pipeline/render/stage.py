@@ -135,12 +135,12 @@ def _chunk_task(c: int, threads: int, *, partial: str, input_path: str, cfg: Ren
     return (stop - start) * cfg.views
 
 
-def run_render(input_path, out, cfg: RenderConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
-    """Render every SVBRDF of the input store into a renders store at ``out`` (resuming a killed run).
+def render_writer(input_path, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:
+    """The StoreWriter of a render run (not entered yet) and the number of SVBRDFs; validates config and input.
 
     Raises:
-        StoreError: input missing, of the wrong kind or with invalid maps; output exists or is being written.
-        ConfigError: bad options, unreachable scheduler.
+        StoreError: input missing or of the wrong kind; output exists.
+        ConfigError: bad options.
     """
     from .scene import scene_constants
     from .store import KIND, array_specs
@@ -162,12 +162,28 @@ def run_render(input_path, out, cfg: RenderConfig, workers: int = 2, scheduler_a
     }
     # the input's identity is part of the config: resuming against a different input must be refused
     config = {**as_dict(cfg), "input": attrs["input"]}
-    with StoreWriter(out, KIND, n, cfg.chunk, arrays, config, attrs) as w:
+    return StoreWriter(out, KIND, n, cfg.chunk, arrays, config, attrs), n
+
+
+def chunk_task(w: StoreWriter, input_path, cfg: RenderConfig, n: int):
+    """The picklable worker function ``(chunk id, threads) -> views written`` of a render run."""
+    return functools.partial(_chunk_task, partial=str(w.partial), input_path=str(input_path), cfg=cfg, n=n)
+
+
+def run_render(input_path, out, cfg: RenderConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
+    """Render every SVBRDF of the input store into a renders store at ``out`` (resuming a killed run).
+
+    Raises:
+        StoreError: input missing, of the wrong kind or with invalid maps; output exists or is being written.
+        ConfigError: bad options, unreachable scheduler.
+    """
+    cfg = cfg.check()
+    writer, n = render_writer(input_path, out, cfg)
+    with writer as w:
         done = w.done_samples()
         if done:
             log.info("resuming %s: %d of %d SVBRDFs already rendered", out, done, n)
-        task = functools.partial(_chunk_task, partial=str(w.partial), input_path=str(input_path), cfg=cfg, n=n)
-        run_chunks(task, w.pending(), workers=workers, scheduler_address=scheduler_address, desc="render",
-                   unit="view", total_units=n * cfg.views, done_units=done * cfg.views)
+        run_chunks(chunk_task(w, input_path, cfg, n), w.pending(), workers=workers,
+                   scheduler_address=scheduler_address, desc="render", unit="view", total_units=n * cfg.views,
+                   done_units=done * cfg.views)
         return str(w.finalize())
-
