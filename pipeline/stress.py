@@ -56,7 +56,7 @@ def reference(rng, size):
 
 @category("glossy_saturated")
 def glossy_saturated(rng, size):
-    m = _variant(rng, size, ("metal", "plastic", "paint", "tiles", "ceramic_tiles"))
+    m = _variant(rng, size, ("metal", "plastic", "paint", "ceramic_tiles"))
     m.roughness = np.clip(m.roughness * 0.15, 0.02, 0.12).astype(np.float32)
     m.specular = np.clip(np.maximum(m.specular, rng.uniform(0.5, 1.0)), 0, 1).astype(np.float32)
     return m, {}
@@ -117,3 +117,64 @@ def make(name: str, rng: np.random.Generator, size: int) -> tuple[SVBRDF, dict]:
         raise ConfigError(f"unknown stress category {name!r}; known: {', '.join(CATEGORIES)}")
     m, over = CATEGORIES[name](rng, size)
     return m.validate(), over
+
+
+def _chunk_task(c: int, threads: int, *, partial: str, plan: list[tuple[str, int]], chunk: int, size: int,
+                categories: list[str]) -> int:
+    from .svbrdf_store import encode_maps
+
+    start, stop = c * chunk, min(len(plan), (c + 1) * chunk)
+    maps = {k: [] for k in materials.MAP_NAMES}
+    radius, seeds = [], []
+    for cat, seed in plan[start:stop]:
+        m, over = make(cat, np.random.default_rng(seed), size)
+        for k, v in encode_maps(m).items():
+            maps[k].append(v)
+        radius.append(over.get("light_radius", (np.nan, np.nan)))
+        seeds.append(seed)
+    data = {k: np.stack(v) for k, v in maps.items()}
+    data["seed"] = np.array(seeds, np.uint64)
+    data["category"] = np.array([categories.index(cat) for cat, _ in plan[start:stop]], np.int16)
+    data["light_radius"] = np.array(radius, np.float32)
+    data["preset"] = np.full((stop - start, 2), -1, np.int32)
+    from .store import write_chunk
+
+    write_chunk(partial, c, start, data)
+    return stop - start
+
+
+def run_stress(out, per_category: int, size: int, seed: int, categories: tuple[str, ...] = (), chunk: int = 4,
+               workers: int = 2, scheduler_address: str | None = None) -> str:
+    """Write a stress store: ``per_category`` SVBRDFs of each category (all by default), kind "stress".
+
+    Sample j of category C is made from derive_seed(seed, "stress", crc32(C), j).
+    """
+    import functools
+    import zlib
+
+    from .errors import ConfigError
+    from .parallel import run_chunks
+    from .seeds import derive_seed
+    from .store import ArraySpec, StoreWriter
+    from .svbrdf_store import map_specs
+
+    materials.registry.check_size(size)
+    cats = list(categories) or list(CATEGORIES)
+    for c in cats:
+        if c not in CATEGORIES:
+            raise ConfigError(f"unknown stress category {c!r}; known: {', '.join(CATEGORIES)}")
+    if per_category < 1:
+        raise ConfigError(f"--per-category must be >= 1, got {per_category}")
+    plan = [(c, derive_seed(seed, "stress", zlib.crc32(c.encode()), j)) for c in cats for j in range(per_category)]
+    arrays = {**map_specs(size), "seed": ArraySpec((), "uint64", "derived sample seed"),
+              "category": ArraySpec((), "int16", "index into attrs.categories"),
+              "light_radius": ArraySpec((2,), "float32", "light offset radius range of its views (NaN: default)"),
+              "preset": ArraySpec((2,), "int32", "-1: stress samples mix or alter presets")}
+    config = {"per_category": per_category, "size": size, "seed": seed, "categories": cats, "chunk": chunk}
+    attrs = {"categories": cats, "presets": [], "category_docs": {c: (CATEGORIES[c].__doc__ or "").strip() for c in cats}}
+    with StoreWriter(out, "stress", len(plan), chunk, arrays, config, attrs) as w:
+        task = functools.partial(_chunk_task, partial=str(w.partial), plan=plan, chunk=chunk, size=size,
+                                 categories=cats)
+        run_chunks(task, w.pending(), workers=workers, scheduler_address=scheduler_address, desc="stress",
+                   unit="svbrdf", total_units=len(plan), done_units=w.done_samples())
+        return str(w.finalize())

@@ -13,6 +13,8 @@ Layout (zarr v3 group, N samples of S x S maps, chunked along the sample axis):
 | params     | (N, P)        | float32| variants: exposed parameters in the preset's table order, NaN-padded |
 | parents    | (N, 2)        | int64  | blends only: variant indices in the source store                  |
 | alpha      | (N,)          | float32| blends only: mean weight of the first parent                      |
+| category   | (N,)          | int16  | stress only: index into attrs["categories"]                       |
+| light_radius | (N, 2)      | float32| stress only: light offset radius range of the sample's views      |
 
 16-bit: quantisation error 7.6e-6, far below what a render or the loss can see,
 while 8-bit linear albedo would band in dark colours.
@@ -26,7 +28,7 @@ from materials.maps import MAP_CHANNELS, MAP_NAMES, SVBRDF, encode_normal, norma
 from .errors import StoreError
 from .store import ArraySpec, open_store, read_region
 
-KINDS = ("variants", "blends")
+KINDS = ("variants", "blends", "stress")
 Q = 65535.0
 
 
@@ -98,3 +100,64 @@ class SVBRDFStore:
             return m.validate(normal_tol=1e-3)
         except ValueError as e:
             raise StoreError(f"{self.path}: sample {i}: {e}") from None
+
+
+class SVBRDFInputs:
+    """Several variants/blends/stress stores read as one sequence (render inputs), in the order given.
+
+    Global sample s is local sample ``s - offset[k]`` of input k. Preset indices of every input are remapped
+    into one list (:attr:`presets`), so provenance survives the concatenation.
+
+    Args:
+        paths: one or more store paths.
+    """
+
+    def __init__(self, paths):
+        paths = [paths] if isinstance(paths, (str, bytes)) or hasattr(paths, "__fspath__") else list(paths)
+        if not paths:
+            raise StoreError("no input store given")
+        self.paths = [str(p) for p in paths]
+        self.stores = [SVBRDFStore(p, KINDS) for p in self.paths]
+        sizes = {s.size for s in self.stores}
+        if len(sizes) != 1:
+            raise StoreError(f"input stores have different map sizes {sorted(sizes)}; render them separately")
+        self.size = sizes.pop()
+        self.offsets = np.cumsum([0] + [len(s) for s in self.stores])
+        self.presets: list[str] = sorted({p for s in self.stores for p in s.presets})
+        self.categories: list[str] = sorted({c for s in self.stores for c in s.attrs.get("categories", [])})
+        self._remap = [np.array([self.presets.index(p) for p in s.presets] + [-1], np.int32) for s in self.stores]
+
+    def __len__(self) -> int:
+        return int(self.offsets[-1])
+
+    def describe(self) -> list[dict]:
+        """Identity of every input (path, kind, size, config hash) for the attributes of a derived store."""
+        return [{"path": p, "kind": s.kind, "n": len(s), "config_hash": s.attrs["svgen"]["config_hash"]}
+                for p, s in zip(self.paths, self.stores)]
+
+    def segments(self, start: int, stop: int):
+        """Yield (input index, local start, local stop) covering global samples [start, stop)."""
+        for k, s in enumerate(self.stores):
+            a, b = max(start, self.offsets[k]), min(stop, self.offsets[k + 1])
+            if a < b:
+                yield k, int(a - self.offsets[k]), int(b - self.offsets[k])
+
+    def read(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Raw arrays of global samples [start, stop): the four maps (on-disk uint16), ``seed``, ``input``,
+        ``index`` (local), ``preset`` (remapped, (n, 2)), ``category`` (-1 if none), ``light_radius`` (NaN if none).
+        """
+        parts = []
+        for k, a, b in self.segments(start, stop):
+            g = self.stores[k].group
+            d = {m: read_region(g, m, a, b) for m in MAP_NAMES}
+            d["seed"] = read_region(g, "seed", a, b).astype(np.uint64)
+            d["input"] = np.full(b - a, k, np.int16)
+            d["index"] = np.arange(a, b, dtype=np.int64)
+            d["preset"] = self._remap[k][read_region(g, "preset", a, b)]
+            cats = self.stores[k].attrs.get("categories", [])
+            d["category"] = (np.array([self.categories.index(c) for c in cats], np.int16)[read_region(g, "category", a, b)]
+                             if "category" in g else np.full(b - a, -1, np.int16))
+            d["light_radius"] = (read_region(g, "light_radius", a, b).astype(np.float32) if "light_radius" in g
+                                 else np.full((b - a, 2), np.nan, np.float32))
+            parts.append(d)
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

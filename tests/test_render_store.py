@@ -123,7 +123,7 @@ def _svbrdf(normal):
 
 
 @pytest.mark.parametrize(("args", "message"), [
-    (("{renders}", "{tmp}/o.zarr"), "is a renders store, expected a variants or blends store"),
+    (("{renders}", "{tmp}/o.zarr"), "is a renders store, expected a variants or blends or stress store"),
     (("{tmp}/nothing.zarr", "{tmp}/o.zarr"), "no store at"),
     (("{variants}", "{renders}"), "already exists"),
     (("{variants}", "{tmp}/o.zarr", "--views", "0"), "views must be a positive integer"),

@@ -62,7 +62,9 @@ def split_by_source(src: Source, holdout: float, seed: int = 0) -> tuple[np.ndar
     Returns:
         (train indices, test indices), sorted int64 arrays.
     """
-    ids = [preset_ids(src.source(i)) for i in range(len(src))]
+    # a store reader lists every sample's presets in one read; source(i) per sample is the generic fallback
+    fast = getattr(src, "source_presets", None)
+    ids = [tuple(t) for t in fast()] if fast is not None else [preset_ids(src.source(i)) for i in range(len(src))]
     names = sorted({n for t in ids for n in t})
     if len(names) < 2:
         raise StoreError(f"the held-out split needs at least 2 source presets, the source has {len(names)}")

@@ -18,7 +18,8 @@ from ..errors import ConfigError, StoreError
 from ..log import get_logger
 from ..parallel import run_chunks
 from ..store import StoreWriter, write_chunk
-from ..svbrdf_store import KINDS, SVBRDFStore
+from materials.maps import MAP_NAMES
+
 
 log = get_logger(__name__)
 
@@ -80,7 +81,8 @@ def _scene(res: int, spp: int, light: str, sampler: str):
     return _SCENES[key]
 
 
-def render_svbrdf(scene, maps, index: int, cfg: RenderConfig) -> tuple[np.ndarray, np.ndarray]:
+def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
+                  light_radius: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """All views of one SVBRDF.
 
     Args:
@@ -88,15 +90,16 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig) -> tuple[np.ndarra
         maps: (B, B, C) base maps (decoded from the store bytes).
         index: the SVBRDF's index (seeds its views).
         cfg: the render configuration.
+        light_radius: optional (min, max) light offset radius replacing the default range (stress sets).
 
     Returns:
         images (V, R, R, 3) uint8 sRGB codes; views (V, 7) float64 view parameters.
     """
-    from .views import draw_views, planes_of, transform_planes
+    from .views import R_MAX, R_MIN, draw_views, planes_of, transform_planes
 
     base = planes_of(maps)
     b = maps.normal.shape[0]
-    views = draw_views(cfg.seed, index, cfg.views)
+    views = draw_views(cfg.seed, index, cfg.views, light_radius or (R_MIN, R_MAX))
     images = np.empty((cfg.views, cfg.res, cfg.res, 3), np.uint8)
     for k, v in enumerate(views):
         planes = transform_planes(base, b, v, cfg.res)
@@ -104,86 +107,100 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig) -> tuple[np.ndarra
     return images, np.stack([v.as_array() for v in views])
 
 
-def _chunk_task(c: int, threads: int, *, partial: str, input_path: str, cfg: RenderConfig, n: int) -> int:
+def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], cfg: RenderConfig, n: int) -> int:
     """Worker: render the SVBRDFs of chunk c and write the whole chunk. Returns the number of views."""
-    from ..svbrdf_store import decode_maps
+    from ..svbrdf_store import SVBRDFInputs, decode_maps
     from .bsdf import dr
 
     dr.set_thread_count(max(1, threads))
-    if input_path not in _INPUTS:  # opening a store costs ~6 ms: once per worker process
+    if inputs not in _INPUTS:  # opening the stores costs ~6 ms each: once per worker process
         _INPUTS.clear()
-        _INPUTS[input_path] = SVBRDFStore(input_path)
-    src = _INPUTS[input_path]
+        _INPUTS[inputs] = SVBRDFInputs(inputs)
+    src = _INPUTS[inputs]
     start, stop = c * cfg.chunk, min(n, (c + 1) * cfg.chunk)
     scene = _scene(cfg.res, cfg.spp, cfg.light, cfg.sampler)
-    raw = {k: src.group[k][start:stop] for k in ("normal", "diffuse", "specular", "roughness")}
-    seeds = src.group["seed"][start:stop]
+    raw = src.read(start, stop)
     images, views = [], []
     for j in range(stop - start):
         s = start + j
-        maps = decode_maps({k: raw[k][j] for k in raw})
+        maps = decode_maps({k: raw[k][j] for k in MAP_NAMES})
         try:
             maps.validate(normal_tol=1e-3)
         except ValueError as e:
-            raise StoreError(f"{input_path}: sample {s}: {e}") from None
-        im, vw = render_svbrdf(scene, maps, s, cfg)
+            raise StoreError(f"{src.paths[raw['input'][j]]}: sample {raw['index'][j]}: {e}") from None
+        radius = tuple(raw["light_radius"][j]) if np.isfinite(raw["light_radius"][j]).all() else None
+        im, vw = render_svbrdf(scene, maps, s, cfg, radius)
         images.append(im)
         views.append(vw)
-    data = {"image": np.stack(images), "view": np.stack(views), **raw,
-            "source": np.arange(start, stop, dtype=np.int64), "source_seed": np.asarray(seeds, np.uint64)}
+    data = {"image": np.stack(images), "view": np.stack(views), **{k: raw[k] for k in MAP_NAMES},
+            "source": raw["index"], "source_seed": raw["seed"], "input": raw["input"], "preset": raw["preset"],
+            "category": raw["category"]}
     write_chunk(partial, c, start, data)
     return (stop - start) * cfg.views
 
 
-def render_writer(input_path, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:
-    """The StoreWriter of a render run (not entered yet) and the number of SVBRDFs; validates config and input.
+def render_writer(inputs, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:
+    """The StoreWriter of a render run (not entered yet) and the number of SVBRDFs; validates config and inputs.
+
+    Args:
+        inputs: one or more variants/blends/stress store paths, rendered as one sequence in this order.
 
     Raises:
-        StoreError: input missing or of the wrong kind; output exists.
+        StoreError: an input missing or of the wrong kind; output exists.
         ConfigError: bad options.
     """
+    from ..svbrdf_store import SVBRDFInputs
     from .scene import scene_constants
     from .store import KIND, array_specs
     from .views import R_MAX, R_MIN, ZOOM_MAX, ZOOM_MIN
 
     cfg = cfg.check()
-    src = SVBRDFStore(input_path, KINDS)
+    src = SVBRDFInputs(inputs)
     n = len(src)
     arrays = array_specs(cfg.views, cfg.res, src.size)
     attrs = {
-        "input": {"path": str(input_path), "kind": src.kind, "n": n,
-                  "config_hash": src.attrs.get("svgen", {}).get("config_hash")},
+        "inputs": src.describe(),
+        "presets": src.presets,
+        "categories": src.categories,
         "scene": {**scene_constants(), "light_model": cfg.light, "spp": cfg.spp, "sampler": cfg.sampler,
                   "output": "linear LDR radiance clipped to [0, 1]"},
         "view_distribution": {"light_radius": [R_MIN, R_MAX], "light_radius_law": "uniform over the annulus",
+                              "light_radius_override": "per-sample light_radius of stress inputs",
                               "zoom": [ZOOM_MIN, ZOOM_MAX], "zoom_law": "log-uniform", "rotation": "U(0, 2 pi)",
                               "shift": "U(0, 1)^2 tiles", "seed": "derive_seed(seed, 'render', svbrdf, view)"},
         "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)",
     }
-    # the input's identity is part of the config: resuming against a different input must be refused
-    config = {**as_dict(cfg), "input": attrs["input"]}
+    # the inputs' identity is part of the config: resuming against different inputs must be refused
+    config = {**as_dict(cfg), "inputs": attrs["inputs"]}
     return StoreWriter(out, KIND, n, cfg.chunk, arrays, config, attrs), n
 
 
-def chunk_task(w: StoreWriter, input_path, cfg: RenderConfig, n: int):
+def chunk_task(w: StoreWriter, inputs, cfg: RenderConfig, n: int):
     """The picklable worker function ``(chunk id, threads) -> views written`` of a render run."""
-    return functools.partial(_chunk_task, partial=str(w.partial), input_path=str(input_path), cfg=cfg, n=n)
+    return functools.partial(_chunk_task, partial=str(w.partial), inputs=_paths(inputs), cfg=cfg, n=n)
 
 
-def run_render(input_path, out, cfg: RenderConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
-    """Render every SVBRDF of the input store into a renders store at ``out`` (resuming a killed run).
+def _paths(inputs) -> tuple[str, ...]:
+    return (str(inputs),) if isinstance(inputs, str) or hasattr(inputs, "__fspath__") else tuple(map(str, inputs))
+
+
+def run_render(inputs, out, cfg: RenderConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
+    """Render every SVBRDF of the input store(s) into a renders store at ``out`` (resuming a killed run).
+
+    Args:
+        inputs: a store path or a sequence of them (e.g. variants and blends), rendered in order.
 
     Raises:
-        StoreError: input missing, of the wrong kind or with invalid maps; output exists or is being written.
+        StoreError: an input missing, of the wrong kind or with invalid maps; output exists or is being written.
         ConfigError: bad options, unreachable scheduler.
     """
     cfg = cfg.check()
-    writer, n = render_writer(input_path, out, cfg)
+    writer, n = render_writer(inputs, out, cfg)
     with writer as w:
         done = w.done_samples()
         if done:
             log.info("resuming %s: %d of %d SVBRDFs already rendered", out, done, n)
-        run_chunks(chunk_task(w, input_path, cfg, n), w.pending(), workers=workers,
+        run_chunks(chunk_task(w, inputs, cfg, n), w.pending(), workers=workers,
                    scheduler_address=scheduler_address, desc="render", unit="view", total_units=n * cfg.views,
                    done_units=done * cfg.views)
         return str(w.finalize())

@@ -7,8 +7,11 @@ Layout (zarr v3 group; the sample axis is the SVBRDF, N of them, each with V vie
 | image          | (N, V, R, R, 3)    | uint8   | linear LDR render, stored sRGB-encoded (see encoding.py)       |
 | view           | (N, V, 7)          | float64 | ViewParams: light_x, light_y, zoom, rotation, shift_u, shift_v, seed |
 | normal ...     | (N, B, B, C)       | uint16  | the base maps, bytes copied from the input store (svbrdf_store) |
-| source         | (N,)               | int64   | index of the SVBRDF in the input store                         |
-| source_seed    | (N,)               | uint64  | that sample's seed in the input store                          |
+| source         | (N,)               | int64   | index of the SVBRDF in its input store                         |
+| source_seed    | (N,)               | uint64  | that sample's seed in its input store                          |
+| input          | (N,)               | int16   | which input store: index into attrs["inputs"]                  |
+| preset         | (N, 2)             | int32   | base material(s): index into attrs["presets"] (-1: none)       |
+| category       | (N,)               | int16   | stress category: index into attrs["categories"] (-1: none)     |
 
 Aligned maps are not stored: a view's maps are recomputed from the stored base maps and the view's transform
 (:func:`pipeline.render.views.transform_maps`), which is exactly how the renderer made its textures, so they
@@ -40,8 +43,11 @@ def array_specs(views: int, res: int, base: int) -> dict[str, ArraySpec]:
         "image": ArraySpec((views, res, res, 3), "uint8", ENCODING, "linear sRGB primaries, stored sRGB-encoded"),
         "view": ArraySpec((views, len(VIEW_FIELDS)), "float64", "ViewParams fields: " + ", ".join(VIEW_FIELDS)),
         **map_specs(base),
-        "source": ArraySpec((), "int64", "index of the SVBRDF in the input store"),
-        "source_seed": ArraySpec((), "uint64", "seed of that SVBRDF in the input store"),
+        "source": ArraySpec((), "int64", "index of the SVBRDF in its input store"),
+        "source_seed": ArraySpec((), "uint64", "seed of that SVBRDF in its input store"),
+        "input": ArraySpec((), "int16", "which input store (index into attrs.inputs)"),
+        "preset": ArraySpec((2,), "int32", "base material(s): index into attrs.presets, -1 for none"),
+        "category": ArraySpec((), "int16", "stress category: index into attrs.categories, -1 for none"),
     }
 
 
@@ -94,14 +100,35 @@ class RendersReader:
         return transform_maps(self.base_maps(s), self.view_params(i), self.res)
 
     def source(self, i: int) -> dict:
-        """Provenance of view i: input store, SVBRDF index there, its seed, this view's index and seed."""
+        """Provenance of view i: base material(s), stress category, input store and index, seeds."""
         s, v = self._split(i)
-        src = self.attrs.get("input", {})
+        src = self.attrs["inputs"][int(read_region(self.group, "input", s, s + 1)[0])]
+        cat = int(read_region(self.group, "category", s, s + 1)[0])
         return {"view": int(i), "svbrdf": s, "view_in_svbrdf": v,
-                "input_store": src.get("path"), "input_kind": src.get("kind"),
+                "presets": list(self.presets_of_svbrdf()[s]),
+                "category": self.attrs["categories"][cat] if cat >= 0 else None,
+                "input_store": src["path"], "input_kind": src["kind"],
                 "input_index": int(read_region(self.group, "source", s, s + 1)[0]),
                 "input_seed": int(read_region(self.group, "source_seed", s, s + 1)[0]),
                 "render_seed": self.view_params(i).seed}
+
+    def presets_of_svbrdf(self) -> list[tuple[str, ...]]:
+        """Base material names of every SVBRDF (one read; for splits by material)."""
+        if not hasattr(self, "_presets"):
+            names = self.attrs["presets"]
+            self._presets = [tuple(names[p] for p in row if p >= 0) for row in self.group["preset"][:]]
+        return self._presets
+
+    def source_presets(self) -> list[tuple[str, ...]]:
+        """Base material names of every view, in view order (one read; what a split by material needs)."""
+        per = self.presets_of_svbrdf()
+        return [p for p in per for _ in range(self.views)]
+
+    def categories_of_views(self) -> list[str | None]:
+        """Stress category of every view (None outside stress sets), one read."""
+        cats = self.attrs["categories"]
+        per_svbrdf = [cats[c] if c >= 0 else None for c in self.group["category"][:]]
+        return [c for c in per_svbrdf for _ in range(self.views)]
 
 
 @lru_cache(maxsize=8)

@@ -73,9 +73,16 @@ class ViewParams:
         return asdict(self)
 
 
-def draw_view(rng: np.random.Generator) -> ViewParams:
-    """Draw one view from the distribution of the module docstring."""
-    rho = math.sqrt(rng.uniform(R_MIN**2, R_MAX**2))
+def draw_view(rng: np.random.Generator, light_radius: tuple[float, float] = (R_MIN, R_MAX)) -> ViewParams:
+    """Draw one view from the distribution of the module docstring.
+
+    Args:
+        rng: the view's generator.
+        light_radius: (min, max) light offset radius; the stress suite widens it to push the highlight to the
+            image border.
+    """
+    r0, r1 = light_radius
+    rho = math.sqrt(rng.uniform(r0**2, r1**2))
     phi = rng.uniform(0.0, 2 * math.pi)
     zoom = math.exp(rng.uniform(math.log(ZOOM_MIN), math.log(ZOOM_MAX)))
     return ViewParams(
@@ -89,9 +96,10 @@ def draw_view(rng: np.random.Generator) -> ViewParams:
     )
 
 
-def draw_views(master_seed: int, sample_index: int, n_views: int) -> list[ViewParams]:
+def draw_views(master_seed: int, sample_index: int, n_views: int,
+               light_radius: tuple[float, float] = (R_MIN, R_MAX)) -> list[ViewParams]:
     """The views of one SVBRDF: view k is a pure function of (master seed, sample index, k)."""
-    return [draw_view(rng_for(master_seed, "render", sample_index, k)) for k in range(n_views)]
+    return [draw_view(rng_for(master_seed, "render", sample_index, k), light_radius) for k in range(n_views)]
 
 
 def supersampling(view: ViewParams, res: int, base: int) -> int:
