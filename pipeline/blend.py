@@ -93,8 +93,14 @@ def make_blend(src: SVBRDFStore, d: dict, cfg: BlendConfig) -> SVBRDF:
     return blend_pair(a, b, w)
 
 
+_SOURCES: dict[str, SVBRDFStore] = {}
+
+
 def _chunk_task(c: int, threads: int, *, partial: str, source: str, cfg: BlendConfig, n_variants: int, n: int) -> int:
-    src = SVBRDFStore(source, "variants")
+    if source not in _SOURCES:  # once per worker process: its chunk cache then serves every task
+        _SOURCES.clear()
+        _SOURCES[source] = SVBRDFStore(source, "variants")
+    src = _SOURCES[source]
     start, stop = c * cfg.chunk, min(n, (c + 1) * cfg.chunk)
     maps = {k: [] for k in MAP_NAMES}
     rows = []
@@ -103,7 +109,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, source: str, cfg: BlendCo
         for k, v in encode_maps(make_blend(src, d, cfg).validate()).items():
             maps[k].append(v)
         rows.append(d)
-    pre = src.group["preset"][:][:, 0]
+    pre = src.preset_table()[:, 0]
     data = {k: np.stack(v) for k, v in maps.items()}
     data["seed"] = np.array([r["seed"] for r in rows], np.uint64)
     data["parents"] = np.array([[r["a"], r["b"]] for r in rows], np.int64)

@@ -17,4 +17,7 @@ def configure(verbose: bool = False) -> None:
     if _CONFIGURED:
         return
     logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    # dask.distributed narrates every connection at INFO: keep its warnings, drop the chatter
+    for name in ("distributed", "tornado", "bokeh"):
+        logging.getLogger(name).setLevel(logging.DEBUG if verbose else logging.WARNING)
     _CONFIGURED = True

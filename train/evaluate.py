@@ -8,11 +8,14 @@ Baselines (the bar a network must clear):
 - ``input_as_diffuse``: the photo as diffuse albedo, a flat normal, training-mean roughness and specular;
 - ``dataset_mean``: every map constant at its training-set mean (mean normal renormalised).
 
-Suites: ``heldout`` (default) is the held-out split of the training source; other suites (stress sets)
-register with :func:`register_suite`.
+Suites: ``heldout`` (default) is the held-out split of the training source (or of ``--store``); ``stress``
+evaluates every view of a renders store of ``svgen stress`` sets, one table row per category (the paper's
+failure cases beside the unmodified ``reference`` category). Baseline means always come from the training
+split of the training store.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Callable
@@ -32,22 +35,35 @@ EVAL_LIGHTS = ((0.0, 0.0), (0.5, 0.0), (-0.4, 0.4), (0.3, -0.6), (-0.7, -0.7))
 MAPS = {"normal": NORMAL, "diffuse": DIFFUSE, "roughness": ROUGHNESS, "specular": SPECULAR}
 COLUMNS = ("rerender", "normal", "diffuse", "roughness", "specular")
 
-#: suite name -> fn(cfg) -> (source, indices).
+#: suite name -> fn(cfg, store) -> {group name: (source, indices)}.
 SUITES: dict[str, Callable] = {}
 
 
 def register_suite(name: str, fn: Callable) -> None:
-    """Register an evaluation suite: ``fn(cfg: Config) -> (source, indices)``."""
+    """Register an evaluation suite: ``fn(cfg: Config, store: str | None) -> {group: (source, indices)}``."""
     SUITES[name] = fn
 
 
-def _heldout(cfg: Config):
-    src = open_source(cfg.data)
+def _heldout(cfg: Config, store: str | None):
+    data = dataclasses.replace(cfg.data, store=store) if store else cfg.data
+    src = open_source(data)
     _, test = split_by_source(src, cfg.data.holdout, cfg.optim.seed)
-    return src, test
+    return {"heldout": (src, test)}
+
+
+def _stress(cfg: Config, store: str | None):
+    if not store:
+        raise ConfigError("--suite stress needs --store: a renders store of `svgen stress` sets")
+    src = open_source(dataclasses.replace(cfg.data, store=store))
+    cats = getattr(src, "categories_of_views", lambda: [])()
+    names = [c for c in dict.fromkeys(cats) if c is not None]
+    if not names:
+        raise ConfigError(f"{store} holds no stress categories (render a `svgen stress` store)")
+    return {c: (src, np.array([i for i, x in enumerate(cats) if x == c], np.int64)) for c in names}
 
 
 register_suite("heldout", _heldout)
+register_suite("stress", _stress)
 
 
 def metrics(pred: torch.Tensor, gt: torch.Tensor) -> dict[str, np.ndarray]:
@@ -128,36 +144,47 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
 
 
 def markdown(res: dict) -> str:
-    """A markdown table: one row per method, the paper's Table 1 columns."""
-    lines = ["| method | " + " | ".join(COLUMNS) + " |", "|---|" + "---|" * len(COLUMNS)]
-    for m in ("model", "input_as_diffuse", "dataset_mean"):
-        if m in res:
-            lines.append(f"| {m} | " + " | ".join(f"{res[m][c]:.4f}" for c in COLUMNS) + " |")
+    """A markdown table: one row per method (and per group for multi-group suites), the paper's Table 1 columns."""
+    groups = res.get("groups", {"": res})
+    lines = ["| group | method | " + " | ".join(COLUMNS) + " |", "|---|---|" + "---|" * len(COLUMNS)]
+    for g, r in groups.items():
+        for m in ("model", "input_as_diffuse", "dataset_mean"):
+            if m in r:
+                lines.append(f"| {g or res.get('suite', '')} | {m} | " + " | ".join(f"{r[m][c]:.4f}" for c in COLUMNS) + " |")
+    n = sum(r["samples"] for r in groups.values())
     lines.append("")
-    lines.append(f"RMSE over {res['samples']} held-out samples; normal in (n+1)/2 encoding, other maps linear; "
+    lines.append(f"RMSE over {n} samples; normal in (n+1)/2 encoding, other maps linear; "
                  f"re-rendering: flash renders under {len(EVAL_LIGHTS)} light positions.")
     return "\n".join(lines) + "\n"
 
 
 def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "heldout",
              store: str | None = None, limit: int | None = None) -> dict:
-    """Evaluate a checkpoint on a suite; writes eval.json and eval.md into ``out_dir``."""
+    """Evaluate a checkpoint on a suite; writes eval.json and eval.md into ``out_dir``.
+
+    Returns:
+        for one-group suites: {"model"|baseline: {column: RMSE}, "samples", "suite", "beats_baselines"};
+        for several groups (stress): {"suite", "groups": {name: that dict}}.
+    """
     from .checkpoint import load_model
 
     if suite not in SUITES:
         raise ConfigError(f"unknown eval suite {suite!r}; known: {', '.join(sorted(SUITES))}")
     model, cfg = load_model(checkpoint_path)
-    if store is not None:
-        cfg.data.store = store
-    src, test_idx = SUITES[suite](cfg)
-    train_idx, _ = split_by_source(src, cfg.data.holdout, cfg.optim.seed)
-    if limit:
-        test_idx = test_idx[:limit]
-    means = train_means(src, train_idx, cfg.data.crop, cfg.optim.seed)
-    res = evaluate(model, src, test_idx, cfg.data.crop, means, cfg.optim.batch_size, cfg.optim.seed)
-    res["suite"] = suite
-    res["beats_baselines"] = {c: all(res["model"][c] < res[b][c] for b in ("input_as_diffuse", "dataset_mean"))
-                              for c in COLUMNS}
+    groups = SUITES[suite](cfg, store)
+    train_src = open_source(cfg.data)  # baseline means: the training split of the training store
+    train_idx, _ = split_by_source(train_src, cfg.data.holdout, cfg.optim.seed)
+    means = train_means(train_src, train_idx, cfg.data.crop, cfg.optim.seed)
+    out_groups = {}
+    for name, (src, idx) in groups.items():
+        if limit:
+            idx = idx[:limit]
+        r = evaluate(model, src, idx, cfg.data.crop, means, cfg.optim.batch_size, cfg.optim.seed)
+        r["beats_baselines"] = {c: all(r["model"][c] < r[b][c] for b in ("input_as_diffuse", "dataset_mean"))
+                                for c in COLUMNS}
+        out_groups[name] = r
+    res = {**out_groups[next(iter(out_groups))], "suite": suite} if len(out_groups) == 1 else \
+        {"suite": suite, "groups": out_groups}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     (out / "eval.json").write_text(json.dumps(res, indent=2) + "\n")
