@@ -49,6 +49,11 @@ def cli(verbose: bool) -> None:
     configure(verbose)
 
 
+def _one_line(msg: object) -> str:
+    """Messages from libraries can span lines (YAML, zarr); the CLI promises one."""
+    return " ".join(str(msg).split())
+
+
 def run_cli(group: click.Group, prog: str, argv=None) -> int:
     """Run a click group; user errors become one line on stderr and exit code 2 (no traceback).
 
@@ -65,10 +70,10 @@ def run_cli(group: click.Group, prog: str, argv=None) -> int:
     except click.exceptions.Exit as e:
         return e.exit_code
     except click.ClickException as e:
-        click.echo(f"{prog}: error: {e.format_message()}", err=True)
+        click.echo(f"{prog}: error: {_one_line(e.format_message())}", err=True)
         return e.exit_code or 2
     except user_error_types() as e:
-        click.echo(f"{prog}: error: {e}", err=True)
+        click.echo(f"{prog}: error: {_one_line(e)}", err=True)
         return getattr(e, "exit_code", 2)
     except KeyboardInterrupt:
         click.echo(f"{prog}: interrupted", err=True)
@@ -86,7 +91,8 @@ def run_cli(group: click.Group, prog: str, argv=None) -> int:
     except Exception as e:  # an unexpected failure: still one line, traceback on request
         if os.environ.get("SVGEN_DEBUG"):
             raise
-        click.echo(f"{prog}: internal error: {type(e).__name__}: {e} (set SVGEN_DEBUG=1 for the traceback)", err=True)
+        click.echo(f"{prog}: internal error: {type(e).__name__}: {_one_line(e)} (set SVGEN_DEBUG=1 for the traceback)",
+                   err=True)
         return 1
 
 

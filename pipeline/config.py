@@ -148,7 +148,9 @@ def load_section(params_file: str | Path, section: str | None) -> dict[str, Any]
     try:
         data = yaml.safe_load(p.read_text()) or {}
     except yaml.YAMLError as e:
-        raise ConfigError(f"params file {p} is not valid YAML: {e}") from None
+        mark = getattr(e, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise ConfigError(f"params file {p} is not valid YAML{where}: {getattr(e, 'problem', None) or e}") from None
     if section is not None:
         data = data.get(section, {})
     if not isinstance(data, dict):

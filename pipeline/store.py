@@ -139,11 +139,17 @@ class StoreWriter:
                 self._create()
             (self.partial / DONE_DIR).mkdir(exist_ok=True)
         except BaseException:
-            self.__exit__()
+            self.__exit__()  # keep whatever is there: it may be another configuration's resumable work
             raise
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, exc_type=None, *exc) -> None:
+        if exc_type is not None and self._lock_fd is not None and self.partial.exists() and \
+                self.done_samples() == 0:
+            # failed before any chunk was written (bad option, unreachable scheduler ...): nothing to resume,
+            # so leave nothing behind
+            shutil.rmtree(self.partial, ignore_errors=True)
+            os.remove(self.lockfile)
         if self._lock_fd is not None:
             fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
             os.close(self._lock_fd)

@@ -101,6 +101,9 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
     """
     cfg.validate()
     o = cfg.optim
+    # open the data first: a bad store must fail before the run directory exists
+    src = source if source is not None else open_source(cfg.data)
+    train_idx, test_idx = split_by_source(src, cfg.data.holdout, o.seed)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if o.threads:
@@ -119,9 +122,6 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
         start, losses = int(state["step"]), list(state["losses"])
         log.info("resuming %s at step %d", out, start)
     (out / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
-
-    src = source if source is not None else open_source(cfg.data)
-    train_idx, test_idx = split_by_source(src, cfg.data.holdout, o.seed)
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
     loss_fn = make_loss(o.compile_loss)

@@ -1,0 +1,119 @@
+"""Bad input across every command, table-driven: one clear line on stderr, a non-zero exit, no traceback,
+and nothing written where the output would have gone."""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+
+import numpy as np
+import pytest
+import zarr
+from PIL import Image
+
+from pipeline.cli import cli, run_cli
+from train.cli import svtrain
+
+SMALL = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
+         "--set", "data.crop=32", "--set", "data.synthetic_size=40", "--set", "data.synthetic_samples=8",
+         "--set", "data.synthetic_materials=4", "--set", "data.holdout=0.5", "--set", "optim.batch_size=2",
+         "--workers", "0", "--no-compile"]
+
+
+def call(group, prog, args) -> tuple[int, str]:
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+        code = run_cli(group, prog, [str(a) for a in args])
+    return code, err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory):
+    """Stores and files of every kind that the bad inputs point at."""
+    from pipeline.config import SampleConfig, build
+    from pipeline.render.stage import RenderConfig, run_render
+    from pipeline.sample import run_sample
+
+    d = tmp_path_factory.mktemp("world")
+    run_sample(d / "v.zarr", build(SampleConfig, "tiny", presets=("paint/glossy_red", "wood/oak_planks"),
+                                   per_preset=1), workers=0)
+    run_render(d / "v.zarr", d / "r.zarr", build(RenderConfig, "tiny", views=1), workers=0)
+    g = zarr.open_group(d / "foreign.zarr", mode="w", zarr_format=3)
+    g.create_array("x", shape=(2,), dtype="f4")
+    zarr.consolidate_metadata(d / "foreign.zarr")
+    (d / "partial.zarr.partial").mkdir()
+    (d / "exists.zarr").mkdir()
+    (d / "bad.yaml").write_text("sample: [unclosed\n")
+    (d / "unknown_key.yaml").write_text("sample:\n  per_preset: 2\n  colour: red\n")
+    (d / "notes.png").write_text("this is not an image")
+    Image.fromarray(np.zeros((4, 300, 3), np.uint8)).save(d / "thin.png")
+    (d / "photo.jpg").write_bytes(b"")
+    code, err = call(svtrain, "svtrain", ["fit", "--out", d / "run", "--iterations", 1, *SMALL])
+    assert code == 0, err
+    return d
+
+
+S, T = (cli, "svgen"), (svtrain, "svtrain")
+CASES = [  # (id, command group, args with {d} = the world dir, expected words in the message)
+    ("unknown command", S, ["frobnicate"], "No such command"),
+    ("unknown option", S, ["sample", "{d}/o.zarr", "--colour", "red"], "No such option"),
+    ("unknown material class", S, ["materials", "--class", "cheese"], "unknown material class"),
+    ("unknown preset", S, ["sample", "{d}/o.zarr", "--preset", "paint/nope"], "unknown preset"),
+    ("size too large", S, ["sample", "{d}/o.zarr", "--size", "2000"], "size must be"),
+    ("zero variants", S, ["sample", "{d}/o.zarr", "--per-preset", "0"], "per_preset must be a positive integer"),
+    ("negative seed", S, ["sample", "{d}/o.zarr", "--seed", "-1"], "seed must be a non-negative"),
+    ("unknown config preset", S, ["sample", "{d}/o.zarr", "--config", "huge"], "unknown preset 'huge'"),
+    ("invalid YAML", S, ["sample", "{d}/o.zarr", "--params", "{d}/bad.yaml"], "not valid YAML"),
+    ("unknown params key", S, ["sample", "{d}/o.zarr", "--params", "{d}/unknown_key.yaml"], "unknown SampleConfig option"),
+    ("output exists", S, ["sample", "{d}/exists.zarr", "--config", "tiny"], "already exists"),
+    ("missing input store", S, ["blend", "{d}/nothing.zarr", "{d}/o.zarr"], "no store at"),
+    ("wrong store kind", S, ["blend", "{d}/r.zarr", "{d}/o.zarr"], "is a renders store, expected a variants store"),
+    ("foreign zarr store", S, ["render", "{d}/foreign.zarr", "{d}/o.zarr"], "not an svgen store"),
+    ("not a zarr store", S, ["render", "{d}/exists.zarr", "{d}/o.zarr"], "not a zarr v3 store"),
+    ("interrupted input store", S, ["render", "{d}/partial.zarr", "{d}/o.zarr"], "incomplete"),
+    ("render resolution", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--res", "8"], "res must be"),
+    ("non-square spp for pixel centres", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--spp", "2"], "square spp"),
+    ("unknown light model", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--light", "laser"], "Invalid value"),
+    ("unreachable scheduler", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--config", "tiny",
+                                  "--scheduler-address", "tcp://127.0.0.1:9"], "cannot reach the dask scheduler"),
+    ("unknown export format", S, ["export", "{d}/r.zarr", "{d}/o.zarr", "--format", "tiff"], "Invalid value"),
+    ("export of a variants store", S, ["export", "{d}/v.zarr", "{d}/o.zarr"], "expected a renders store"),
+    ("unknown stress category", S, ["stress", "{d}/o.zarr", "--category", "haunted"], "unknown stress category"),
+    ("fit: unknown config key", T, ["fit", "--out", "{d}/o.zarr", "--set", "model.colour=red"], "unknown"),
+    ("fit: impossible depth", T, ["fit", "--out", "{d}/o.zarr", "--set", "model.levels=99"], "levels"),
+    ("fit: missing store", T, ["fit", "--out", "{d}/o.zarr", "--store", "{d}/nothing.zarr"], "does not exist"),
+    ("eval: missing checkpoint", T, ["eval", "--checkpoint", "{d}/nothing", "--out", "{d}/o.zarr"], "checkpoint"),
+    ("eval: stress without store", T, ["eval", "--checkpoint", "{d}/run", "--suite", "stress",
+                                       "--out", "{d}/o.zarr"], "needs --store"),
+    ("eval: unknown suite", T, ["eval", "--checkpoint", "{d}/run", "--suite", "party", "--out", "{d}/o.zarr"],
+     "unknown eval suite"),
+    ("predict: not an image", T, ["predict", "{d}/notes.png", "--checkpoint", "{d}/run", "--out", "{d}/o.zarr"],
+     "cannot read image"),
+    ("predict: wrong shape", T, ["predict", "{d}/thin.png", "--checkpoint", "{d}/run", "--out", "{d}/o.zarr"],
+     "need at least"),
+    ("predict: empty JPEG", T, ["predict", "{d}/photo.jpg", "--checkpoint", "{d}/run", "--out", "{d}/o.zarr"],
+     "cannot read image"),
+    ("predict: unsupported format", T, ["predict", "{d}/bad.yaml", "--checkpoint", "{d}/run", "--out", "{d}/o.zarr"],
+     "unsupported format"),
+]
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_bad_input_is_one_line_nonzero_and_writes_nothing(case, world):
+    _, (group, prog), args, expect = case
+    before = sorted(p.name for p in world.iterdir())
+    code, err = call(group, prog, [a.format(d=world) for a in args])
+    assert code != 0
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith(f"{prog}: ") and expect in err, err
+    assert sorted(p.name for p in world.iterdir()) == before, "a failed command left files behind"
+    assert list((world / "exists.zarr").iterdir()) == []
+
+
+def test_the_table_covers_every_command_and_twenty_kinds():
+    assert len(CASES) >= 20
+    commands = {(c[1][1], c[2][0]) for c in CASES}
+    for cmd in ("materials", "sample", "blend", "render", "export", "stress"):
+        assert ("svgen", cmd) in commands
+    for cmd in ("fit", "eval", "predict"):
+        assert ("svtrain", cmd) in commands
