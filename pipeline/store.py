@@ -276,3 +276,43 @@ def read_region(g: zarr.Group, name: str, start: int, stop: int) -> np.ndarray:
         chunk = g[name].chunks[0]
         raise StoreError(f"corrupt data in {g.store} array {name!r}, samples {start}:{stop} "
                          f"(chunk {start // chunk}): {e}") from None
+
+
+class ChunkCache:
+    """Whole decoded chunks of a store's arrays, kept up to a byte budget (FIFO eviction).
+
+    Random access by sample (blending random pairs, a training loader drawing random views) would otherwise
+    decompress a whole chunk, and pay zarr's per-call overhead, for every single sample.
+
+    Args:
+        group: an open store.
+        budget_bytes: decoded bytes kept at most.
+    """
+
+    def __init__(self, group: zarr.Group, budget_bytes: int = 3 << 30):
+        self.group, self.budget = group, int(budget_bytes)
+        self._chunks: dict[tuple[str, int], np.ndarray] = {}
+        self._bytes = 0
+        self._len = {}
+
+    def chunk(self, name: str, c: int) -> np.ndarray:
+        """Chunk ``c`` of array ``name`` along the sample axis (read once, then from memory)."""
+        key = (name, c)
+        if key not in self._chunks:
+            n = self._chunk_len(name)
+            a = read_region(self.group, name, c * n, (c + 1) * n)
+            while self._chunks and self._bytes + a.nbytes > self.budget:
+                self._bytes -= self._chunks.pop(next(iter(self._chunks))).nbytes
+            self._chunks[key] = a
+            self._bytes += a.nbytes
+        return self._chunks[key]
+
+    def sample(self, name: str, i: int) -> np.ndarray:
+        """Sample ``i`` of array ``name``."""
+        n = self._chunk_len(name)
+        return self.chunk(name, i // n)[i % n]
+
+    def _chunk_len(self, name: str) -> int:
+        if name not in self._len:
+            self._len[name] = int(self.group[name].chunks[0])
+        return self._len[name]

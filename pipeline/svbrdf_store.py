@@ -26,7 +26,7 @@ import numpy as np
 from materials.maps import MAP_CHANNELS, MAP_NAMES, SVBRDF, encode_normal, normalize
 
 from .errors import StoreError
-from .store import ArraySpec, open_store, read_region
+from .store import ArraySpec, ChunkCache, open_store, read_region
 
 KINDS = ("variants", "blends", "stress")
 Q = 65535.0
@@ -78,8 +78,7 @@ class SVBRDFStore:
         self.kind = self.attrs["svgen"]["kind"]
         self.presets: list[str] = list(self.attrs.get("presets", []))
         self.size = int(self.group["diffuse"].shape[1])
-        self._cache: dict = {}
-        self._cached_bytes = 0
+        self._cache = ChunkCache(self.group, self.CACHE_BYTES)
 
     def __len__(self) -> int:
         return int(self.group["diffuse"].shape[0])
@@ -90,19 +89,7 @@ class SVBRDFStore:
         Reads go through a per-store cache of whole chunks: random access (blending picks pairs at random)
         would otherwise decompress a whole chunk for every single sample.
         """
-        c = self.group["diffuse"].chunks[0]
-        return decode_maps({k: self._chunk(k, i // c)[i % c] for k in MAP_NAMES})
-
-    def _chunk(self, name: str, c: int) -> np.ndarray:
-        key = (name, c)
-        if key not in self._cache:
-            n = self.group[name].chunks[0]
-            a = read_region(self.group, name, c * n, (c + 1) * n)
-            while self._cache and self._cached_bytes + a.nbytes > self.CACHE_BYTES:
-                self._cached_bytes -= self._cache.pop(next(iter(self._cache))).nbytes  # FIFO: access is uniform
-            self._cache[key] = a
-            self._cached_bytes += a.nbytes
-        return self._cache[key]
+        return decode_maps({k: self._cache.sample(k, i) for k in MAP_NAMES})
 
     def maps_range(self, start: int, stop: int) -> list[SVBRDF]:
         """Maps of samples [start, stop) with one read per array (fast for whole chunks)."""

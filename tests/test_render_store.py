@@ -146,3 +146,14 @@ def test_bad_input_gives_one_line_and_nonzero_exit(args, message, variants, rend
     assert "Traceback" not in msg
     assert not (tmp_path / "o.zarr").exists()
     assert tree_digest(renders) == before  # nothing overwritten
+
+
+def test_crop_window_equals_cropping_the_full_view(renders):
+    """The training loader's window transform gives exactly the pixels of the full image and maps."""
+    r = RendersReader(renders)
+    for i in range(len(r)):
+        img, m = r.crop(i, 5, 17, 32)
+        full_i, full_m = r.image(i), r.maps(i)
+        assert np.array_equal(img, full_i[5:37, 17:49])
+        for k in ("normal", "diffuse", "specular", "roughness"):
+            assert np.array_equal(getattr(m, k), getattr(full_m, k)[5:37, 17:49]), k

@@ -29,7 +29,7 @@ import numpy as np
 from materials.maps import MAP_NAMES, SVBRDF
 
 from ..errors import StoreError
-from ..store import ArraySpec, open_store, read_region
+from ..store import ArraySpec, ChunkCache, open_store, read_region
 from ..svbrdf_store import decode_maps, map_specs
 from .encoding import ENCODING, decode_srgb8
 from .views import VIEW_FIELDS, ViewParams
@@ -61,6 +61,9 @@ class RendersReader:
         StoreError: missing, incomplete, or not a renders store.
     """
 
+    CACHE_BYTES = 2 << 30  # decoded chunks kept per reader (per loader worker)
+    PLANE_CACHE = 384  # SVBRDFs whose base maps stay as drjit planes (2.6 MB each at 256^2)
+
     def __init__(self, path):
         self.path = path
         self.group = open_store(path, KIND)
@@ -68,6 +71,9 @@ class RendersReader:
         shape = self.group["image"].shape
         self.n_svbrdf, self.views, self.res = int(shape[0]), int(shape[1]), int(shape[2])
         self.base_res = int(self.group["diffuse"].shape[1])
+        self._cache = ChunkCache(self.group, self.CACHE_BYTES)
+        self._views: np.ndarray | None = None
+        self._planes: dict[int, list] = {}
 
     def __len__(self) -> int:
         return self.n_svbrdf * self.views
@@ -81,12 +87,14 @@ class RendersReader:
     def image(self, i: int) -> np.ndarray:
         """View i's render: (R, R, 3) float32 linear in [0, 1], numpy row 0 = image top."""
         s, v = self._split(i)
-        return decode_srgb8(read_region(self.group, "image", s, s + 1)[0, v])
+        return decode_srgb8(self._cache.sample("image", s)[v])
 
     def view_params(self, i: int) -> ViewParams:
         """View i's light offset, texture transform and seed."""
         s, v = self._split(i)
-        return ViewParams.from_array(read_region(self.group, "view", s, s + 1)[0, v])
+        if self._views is None:  # (N, V, 7) float64: small, read once
+            self._views = read_region(self.group, "view", 0, self.n_svbrdf)
+        return ViewParams.from_array(self._views[s, v])
 
     def base_maps(self, s: int) -> SVBRDF:
         """Tileable base maps of SVBRDF s (float32, decoded exactly as the renderer decoded them)."""
@@ -98,6 +106,28 @@ class RendersReader:
 
         s, _ = self._split(i)
         return transform_maps(self.base_maps(s), self.view_params(i), self.res)
+
+    def crop(self, i: int, row0: int, col0: int, size: int) -> tuple[np.ndarray, SVBRDF]:
+        """A size x size window of view i: the image and the aligned maps of exactly those pixels.
+
+        Equal to cropping :meth:`image` and :meth:`maps` (a test holds them together), but transforms only the
+        window's pixels: what a training loader that crops 256 -> 128 needs.
+
+        Returns:
+            (size, size, 3) float32 linear image; SVBRDF of (size, size, C) maps.
+        """
+        from .views import planes_of, svbrdf_of, transform_planes
+
+        s, v = self._split(i)
+        if not (0 <= row0 and 0 <= col0 and row0 + size <= self.res and col0 + size <= self.res):
+            raise IndexError(f"crop {size} at ({row0}, {col0}) leaves the {self.res}^2 view")
+        if s not in self._planes:
+            if len(self._planes) >= self.PLANE_CACHE:
+                self._planes.pop(next(iter(self._planes)))
+            self._planes[s] = planes_of(self.base_maps(s))
+        planes = transform_planes(self._planes[s], self.base_res, self.view_params(i), self.res, (row0, col0, size))
+        img = decode_srgb8(self._cache.sample("image", s)[v, row0:row0 + size, col0:col0 + size])
+        return img, svbrdf_of(planes, size)
 
     def source(self, i: int) -> dict:
         """Provenance of view i: base material(s), stress category, input store and index, seeds."""
@@ -135,6 +165,6 @@ class RendersReader:
 def _base_maps_cached(reader: RendersReader, s: int) -> SVBRDF:
     # the V views of one SVBRDF share its base maps: decode them once
     try:
-        return decode_maps({k: read_region(reader.group, k, s, s + 1)[0] for k in MAP_NAMES})
+        return decode_maps({k: reader._cache.sample(k, s) for k in MAP_NAMES})
     except KeyError as e:
         raise StoreError(f"{reader.path}: missing base map {e}") from None

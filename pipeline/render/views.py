@@ -107,7 +107,8 @@ def supersampling(view: ViewParams, res: int, base: int) -> int:
     return max(1, math.ceil(view.zoom * base / res - 1e-9))
 
 
-def transform_planes(base_planes: list, base: int, view: ViewParams, res: int) -> list:
+def transform_planes(base_planes: list, base: int, view: ViewParams, res: int,
+                     window: tuple[int, int, int] | None = None) -> list:
     """Transform base maps (the BSDF's channel planes) into a view, in one drjit kernel.
 
     Per output pixel: ss x ss subsamples (see :func:`supersampling`), each a bilinear, periodically wrapped
@@ -123,14 +124,23 @@ def transform_planes(base_planes: list, base: int, view: ViewParams, res: int) -
         base: side length of the square base maps.
         view: the view.
         res: output side length.
+        window: optional (row0, col0, size): only that square of the res x res picture (training crops); the
+            offsets are opaque, so every crop position shares one kernel.
 
     Returns:
-        10 evaluated mi.Float of width res * res, numpy row 0 = image top.
+        10 evaluated mi.Float of width res * res (or size * size), numpy row 0 = image top.
     """
     ss = supersampling(view, res, base)
-    pix = dr.arange(mi.UInt32, res * res)
-    row = pix // res
-    col = pix - row * res
+    if window is None:
+        pix = dr.arange(mi.UInt32, res * res)
+        row = pix // res
+        col = pix - row * res
+    else:
+        r0w, c0w, size = window
+        pix = dr.arange(mi.UInt32, size * size)
+        row = pix // size
+        col = pix - row * size + dr.opaque(mi.UInt32, c0w)
+        row = row + dr.opaque(mi.UInt32, r0w)
     c = dr.opaque(mi.Float, math.cos(view.rotation))
     s = dr.opaque(mi.Float, math.sin(view.rotation))
     zoom = dr.opaque(mi.Float, view.zoom)
