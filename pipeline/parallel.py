@@ -40,6 +40,10 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
     import dask
     from distributed import Client, LocalCluster
 
+    if not log.isEnabledFor(logging.DEBUG):  # distributed sets its loggers to INFO when imported
+        for name in ("distributed", "distributed.nanny", "distributed.scheduler", "distributed.core"):
+            logging.getLogger(name).setLevel(logging.WARNING)
+
     if scheduler_address:
         try:
             client = Client(scheduler_address, timeout=f"{connect_timeout}s")

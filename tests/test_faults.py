@@ -1,0 +1,95 @@
+"""Pipeline faults: a corrupted chunk in an input store is detected and named (never silently used), and a
+full disk gives one clear line, leaves no complete-looking store, and keeps earlier outputs intact."""
+from __future__ import annotations
+
+import contextlib
+import io
+import shutil
+import subprocess
+import uuid
+from pathlib import Path
+
+import pytest
+
+from conftest import tree_digest
+from pipeline.cli import cli, run_cli
+from pipeline.config import SampleConfig, build
+from pipeline.render.stage import RenderConfig, run_render
+from pipeline.sample import run_sample
+
+PRESETS = ("paint/glossy_red", "wood/oak_planks")
+
+
+def call(*args) -> tuple[int, str]:
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = run_cli(cli, "svgen", [str(a) for a in args])
+    return code, err.getvalue()
+
+
+def corrupt(path: Path) -> None:
+    b = bytearray(path.read_bytes())
+    b[len(b) // 2] ^= 0x5A
+    path.write_bytes(bytes(b))
+
+
+@pytest.fixture
+def variants(tmp_path):
+    out = tmp_path / "v.zarr"
+    run_sample(out, build(SampleConfig, "tiny", presets=PRESETS, per_preset=2, chunk=2), workers=0)
+    return out
+
+
+def test_render_names_a_corrupted_input_chunk(variants, tmp_path):
+    corrupt(variants / "diffuse" / "c" / "1" / "0" / "0" / "0")
+    code, err = call("render", variants, tmp_path / "r.zarr", "--config", "tiny", "--workers", "0")
+    assert code != 0 and err.count("\n") == 1
+    assert "corrupt data" in err and "'diffuse'" in err and "chunk 1" in err, err
+    assert not (tmp_path / "r.zarr").exists()
+
+
+def test_training_refuses_a_corrupted_renders_chunk(variants, tmp_path):
+    from train.cli import svtrain
+
+    r = tmp_path / "r.zarr"
+    run_render(variants, r, build(RenderConfig, "tiny", chunk=1), workers=0)
+    corrupt(r / "image" / "c" / "2" / "0" / "0" / "0" / "0")
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = run_cli(svtrain, "svtrain", ["fit", "--store", r, "--out", tmp_path / "run", "--iterations", 6,
+                                            "--set", "model.base_width=4", "--set", "model.max_width=8",
+                                            "--set", "model.levels=3", "--set", "data.crop=32",
+                                            "--set", "data.holdout=0.5", "--set", "optim.batch_size=4",
+                                            "--workers", "0", "--no-compile"])
+    msg = err.getvalue()
+    assert code != 0 and "corrupt data" in msg and "'image'" in msg and "chunk 2" in msg, msg
+
+
+@pytest.fixture
+def small_disk():
+    """A 3 MiB tmpfs (root can mount one here and in CI); skipped with the reason where mounting is not allowed."""
+    mnt = Path("/tmp") / f"svgen-full-{uuid.uuid4().hex[:8]}"
+    mnt.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(mnt)], capture_output=True, text=True)
+    if r.returncode != 0:
+        mnt.rmdir()
+        pytest.skip(f"cannot mount a small tmpfs here: {r.stderr.strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+        shutil.rmtree(mnt, ignore_errors=True)
+
+
+def test_full_disk_is_one_line_and_keeps_earlier_outputs(small_disk):
+    first = small_disk / "small.zarr"
+    code, err = call("sample", first, "--config", "tiny", "--preset", PRESETS[0], "--per-preset", "1",
+                     "--workers", "0")
+    assert code == 0, err
+    before = tree_digest(first)
+    big = small_disk / "big.zarr"  # 51 presets x 2 variants of 256^2 uint16 maps: far more than 3 MiB
+    code, err = call("sample", big, "--size", "256", "--per-preset", "2", "--chunk", "2", "--workers", "0")
+    assert code != 0 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert "No space left on device" in err and "resumes" in err, err
+    assert not big.exists()  # a partial store may stay (to resume); a complete-looking one never
+    assert tree_digest(first) == before
