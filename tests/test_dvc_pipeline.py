@@ -26,6 +26,7 @@ TINY = {
               "data": {"crop": 32, "workers": 0},
               "optim": {"iterations": 4, "batch_size": 2, "checkpoint_every": 2, "compile_loss": False}},
     "eval": {"limit": 8},
+    "stress": {"per_category": 1, "seed": 0},
 }
 ENV = {**os.environ, "SVGEN_NO_PROGRESS": "1", "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t",
        "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
@@ -57,10 +58,11 @@ def project(tmp_path_factory):
 
 def test_repro_runs_every_stage_then_nothing(project):
     r = sh(["dvc", "repro"], project)
-    for stage in ("sample", "blend", "render", "fit", "eval"):
+    for stage in ("sample", "blend", "render", "fit", "eval", "stress", "eval_stress", "charts"):
         assert f"Running stage '{stage}'" in r.stdout, r.stdout[-2000:]
     for out in ("data/variants.zarr", "data/blends.zarr", "data/renders.zarr", "runs/train/checkpoint.pt",
-                "runs/eval/eval.json", "runs/eval/eval.md", "runs/train/loss.csv"):
+                "runs/eval/eval.json", "runs/eval/eval.md", "runs/train/loss.csv", "runs/eval_stress/eval.md",
+                "runs/charts/chart_render.png"):
         assert (project / out).exists(), out
     metrics = sh(["dvc", "metrics", "show", "--json"], project).stdout
     assert "rerender" in metrics and "eval.json" in metrics

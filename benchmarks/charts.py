@@ -1,0 +1,129 @@
+"""Rebuild the README's charts from the benchmark results (matplotlib PNG + the plotted data as CSV).
+
+    python3 benchmarks/charts.py                 # docs/img/chart_*.png, benchmarks/results/chart_*.csv
+    python3 benchmarks/charts.py --out runs/charts   # both into one folder (the DVC `charts` stage)
+
+1. render: time per view against error to a converged reference (bench_render_quality.py), default marked;
+2. training: held-out re-render RMSE against training wall time per width (bench_train_budget.py);
+3. scale-out: views/s against dask workers, local and a loopback cluster (bench_scaleout.py);
+4. agreement: torch flash render against Mitsuba at increasing spp (bench_agreement.py).
+A chart whose results file is missing is skipped with a note (run its benchmark first).
+"""
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+RES = ROOT / "benchmarks" / "results"
+IMG = ROOT / "docs" / "img"
+CSV = RES
+
+
+def _write_csv(path: Path, rows: list[dict]) -> None:
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def chart_render() -> Path | None:
+    src = RES / "render_quality.json"
+    if not src.exists():
+        return None
+    d = json.loads(src.read_text())
+    rows = [{k: c[k] for k in ("res", "light", "sampler", "spp", "cpu_s_per_view", "rel_rmse")}
+            for c in d["candidates"]]
+    _write_csv(CSV / "chart_render.csv", rows)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    styles = {"point": "o", "sphere": "s"}
+    colours = {128: "tab:blue", 256: "tab:orange"}
+    for (res, light, sampler) in sorted({(r["res"], r["light"], r["sampler"]) for r in rows}):
+        pts = sorted((r for r in rows if (r["res"], r["light"], r["sampler"]) == (res, light, sampler)),
+                     key=lambda r: r["spp"])
+        ax.plot([p["cpu_s_per_view"] * 1e3 for p in pts], [p["rel_rmse"] * 100 for p in pts],
+                marker=styles[light], color=colours.get(res, "grey"), ls="-" if sampler == "independent" else ":",
+                label=f"{res}² {light} {sampler}", ms=4)
+        for p in pts:
+            ax.annotate(str(p["spp"]), (p["cpu_s_per_view"] * 1e3, p["rel_rmse"] * 100), fontsize=6,
+                        xytext=(2, 2), textcoords="offset points")
+    chosen = d["chosen"].get("256")
+    if chosen:
+        ax.scatter([chosen["cpu_s_per_view"] * 1e3], [chosen["rel_rmse"] * 100], s=160, facecolors="none",
+                   edgecolors="red", linewidths=2, zorder=5, label="default (256², point, centre, 1 spp)")
+    ax.axhline(d["threshold_rel_rmse"] * 100, color="red", lw=0.8, ls="--", label="1 % bar")
+    ax.set(xscale="log", yscale="log", xlabel="CPU ms per view", ylabel="relative RMSE vs converged reference (%)",
+           title="Render: cost against error (labels: spp)")
+    ax.legend(fontsize=6, ncol=2)
+    return _save(fig, "chart_render.png")
+
+
+def chart_scaleout() -> Path | None:
+    src = RES / "scaleout.json"
+    if not src.exists():
+        return None
+    d = json.loads(src.read_text())
+    rows = [{k: r[k] for k in ("config", "workers", "views_per_s_total", "views_per_s_steady")} for r in d["rows"]]
+    _write_csv(CSV / "chart_scaleout.csv", rows)
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    y = range(len(rows))
+    ax.barh([i + 0.2 for i in y], [r["views_per_s_steady"] for r in rows], height=0.4, label="steady state")
+    ax.barh([i - 0.2 for i in y], [r["views_per_s_total"] for r in rows], height=0.4,
+            label="whole command (cluster start included)")
+    ax.set_yticks(list(y), [r["config"] for r in rows], fontsize=8)
+    ax.set(xlabel="views / s (256², default quality)",
+           title=f"Scale-out on {d['machine']['cpus']} cores (stores identical: {d['stores_identical']})")
+    ax.legend(fontsize=7)
+    return _save(fig, "chart_scaleout.png")
+
+
+def _external(module: str, func: str, json_name: str, png: str) -> Path | None:
+    """Charts whose plotting lives beside their benchmark: ``func(json_path, png_path)``."""
+    path = ROOT / "benchmarks" / f"{module}.py"
+    if not path.exists() or not (RES / json_name).exists():
+        return None
+    spec = importlib.util.spec_from_file_location(module, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    getattr(mod, func)(RES / json_name, IMG / png)
+    return IMG / png
+
+
+def _save(fig, name: str) -> Path:
+    IMG.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(IMG / name, dpi=110)
+    plt.close(fig)
+    return IMG / name
+
+
+def main(argv=None) -> int:
+    import argparse
+
+    global IMG, CSV
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=None, help="write PNGs and CSVs into this folder")
+    args = ap.parse_args(argv)
+    if args.out is not None:
+        IMG = CSV = args.out.resolve()
+        IMG.mkdir(parents=True, exist_ok=True)
+    made = {"render": chart_render(), "training": _external("charts_training", "plot", "train_budget.json",
+                                                            "chart_training.png"),
+            "scale-out": chart_scaleout(),
+            "agreement": _external("charts_agreement", "chart_agreement", "agreement.json",
+                                       "chart_agreement.png")}
+    for name, p in made.items():
+        print(f"{name:10s} {p if p else 'skipped: run its benchmark first'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
