@@ -78,6 +78,15 @@ def _ggx_d(h, a2):
     return dr.select(h.z > 0.0, a2 * _INV_PI / dr.maximum(t * t, 1e-30), 0.0)
 
 
+def _half(wi, wo):
+    """Unit half vector of wi, wo and where it exists: |wi + wo|^2 > 1e-30 (wo = -wi has none; for grazing
+    opposite directions the squared norm underflows and a plain normalize gives NaN). Where it does not
+    exist, wi and wo lie within 1e-15 of opposite, so one cosine is <= ~1e-15: callers return 0 there."""
+    hh = wi + wo
+    n2 = dr.squared_norm(hh)
+    return hh * dr.rsqrt(dr.maximum(n2, 1e-30)), n2 > 1e-30
+
+
 def _smith_g1_exact(v, a2):
     """Exact Smith G1 of GGX (the shadowing of the VNDF sampler, not the BRDF's Schlick-Smith G)."""
     z2 = dr.maximum(v.z * v.z, 1e-12)
@@ -190,7 +199,7 @@ class GGXBSDF(mi.BSDF):
     def _brdf_cos(wi, wo, d, s, alpha):
         """f * cos(wo) in the normal-map frame (wi, wo local to it); 0 where either cosine is <= 0."""
         nv, nl = wi.z, wo.z
-        h = dr.normalize(wi + wo)
+        h, has_h = _half(wi, wo)
         vh = dr.maximum(dr.dot(wi, h), 0.0)
         a2 = alpha * alpha
         k = 0.5 * alpha
@@ -199,18 +208,18 @@ class GGXBSDF(mi.BSDF):
         # D F G / (4 NL NV) with G's NL NV cancelled: denominator >= k^2 > 0.
         spec = D * F / (4.0 * dr.fma(nl, 1.0 - k, k) * dr.fma(nv, 1.0 - k, k))
         f = d * (1.0 - s) * _INV_PI + spec
-        ok = (nv > 0.0) & (nl > 0.0)
+        ok = (nv > 0.0) & (nl > 0.0) & has_h
         return dr.select(ok, f * nl, 0.0)
 
     @staticmethod
     def _pdf_local(wi, wo, alpha, p_spec):
         """Mixture pdf (solid angle) of wo given wi, both local to the normal-map frame."""
         a2 = alpha * alpha
-        h = dr.normalize(wi + wo)
+        h, has_h = _half(wi, wo)
         # VNDF: p(m) = G1(wi) max(0, wi.m) D(m) / wi.z; Jacobian of reflection 1/(4 wo.m), and wo.m = wi.m.
         p_s = _smith_g1_exact(wi, a2) * _ggx_d(h, a2) / (4.0 * dr.maximum(wi.z, 1e-8))
         p_d = dr.maximum(wo.z, 0.0) * _INV_PI
-        ok = (wi.z > 0.0) & (wo.z > 0.0)
+        ok = (wi.z > 0.0) & (wo.z > 0.0) & has_h
         return dr.select(ok, p_spec * p_s + (1.0 - p_spec) * p_d, 0.0)
 
     def _setup(self, si, wo, active):
