@@ -29,6 +29,11 @@ Why not compare torch's pixel centres with a converged box-filtered Mitsuba rend
 by up to ~3 % relative RMSE. That is the film's filter, not a renderer disagreement; it shrinks with resolution
 (benchmarks/bench_agreement.py measures it) and the data stage does not integrate the pixel anyway.
 
+Known convention difference (inside the contract): a shading normal facing away from the camera (n.v <= 0;
+needs a tilt > ~65 deg) is black in Mitsuba and lit with clamped cosines in torch (the paper's original code).
+Real maps reach it rarely: ground/beach_sand in bench_agreement's 256^2 view has 13 such pixels, 0.14 %
+relative RMSE. tests/test_stability.py states the two conventions.
+
 On failure the two images and the difference image are written as PNG into a fresh temp dir, named in the
 message.
 """
