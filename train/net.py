@@ -16,10 +16,17 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from .brdf import MIN_ROUGHNESS
 from .config import ModelConfig
 
 IN_EPS = 1e-5
 LOG_EPS = 0.01
+#: the material the untrained network predicts (output biases): grey diffuse, the usual dielectric F0, mid roughness.
+INIT_DIFFUSE, INIT_SPECULAR, INIT_ROUGHNESS = 0.25, 0.04, 0.5
+
+
+def _logit(p: float) -> float:
+    return math.log(p / (1.0 - p))
 
 
 def log_map(x: torch.Tensor) -> torch.Tensor:
@@ -90,6 +97,16 @@ class SVBRDFNet(nn.Module):
         self.out_bias = nn.Linear(gdim, 9)
         nn.init.normal_(self.out_bias.weight, std=0.01)
         nn.init.zeros_(self.out_bias.bias)
+        # Start from a plausible material, not sigmoid(0) = 0.5 everywhere: an F0 of 0.5 (metal-like) under the
+        # rendering loss's lights gives highlights ~10x too bright, and the fastest way down the loss is to shrink
+        # the lobe to a mirror (roughness -> floor) rather than to lower F0; the net then stayed there (dvc store,
+        # 700 steps: held-out roughness RMSE 0.64, specular 0.39, both far worse than the mean baselines).
+        # Started near the data means, the same 450-step probe gave 0.27 / 0.07 (benchmarks/results/train_probes.json).
+        with torch.no_grad():
+            self.out_conv.bias.zero_()
+            self.out_conv.bias[2:5] = _logit(INIT_DIFFUSE)
+            self.out_conv.bias[5] = _logit((INIT_ROUGHNESS - MIN_ROUGHNESS) / (1.0 - MIN_ROUGHNESS))
+            self.out_conv.bias[6:9] = _logit(INIT_SPECULAR)
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         """Args: image (B, 3, H, W) linear in [0, 1]. Returns (B, 10, H, W) packed maps."""
@@ -119,7 +136,8 @@ def outputs_to_maps(o: torch.Tensor) -> torch.Tensor:
         o: (B, 9, H, W): normal xy, diffuse (3), roughness (1), specular (3).
 
     Returns:
-        (B, 10, H, W): unit normal with reconstructed z > 0, diffuse, specular, roughness in [0, 1].
+        (B, 10, H, W): unit normal with reconstructed z > 0, diffuse, specular in [0, 1], roughness in
+        [MIN_ROUGHNESS, 1].
     """
     xy = torch.tanh(o[:, 0:2])
     # z from the unit-length constraint; the floor keeps sqrt's gradient finite when |xy| -> 1,
@@ -128,7 +146,9 @@ def outputs_to_maps(o: torch.Tensor) -> torch.Tensor:
     n = torch.cat([xy, z], 1)
     n = n * torch.rsqrt((n * n).sum(1, keepdim=True))
     diffuse = torch.sigmoid(o[:, 2:5])
-    rough = torch.sigmoid(o[:, 5:6])
+    # roughness in [MIN_ROUGHNESS, 1], the renderer's domain: below the floor its clamp has zero gradient, and the
+    # dvc model had 55 % of its held-out pixels there (a dead zone the loss could never pull them out of).
+    rough = MIN_ROUGHNESS + (1.0 - MIN_ROUGHNESS) * torch.sigmoid(o[:, 5:6])
     spec = torch.sigmoid(o[:, 6:9])
     return torch.cat([n, diffuse, spec, rough], 1)
 

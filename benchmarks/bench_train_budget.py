@@ -1,0 +1,351 @@
+"""Eval error against training wall time for several network widths on a real renders store (#4, chart 2 of #5).
+
+For each base width (max width 8x base, 7 levels, 128² crops, batch 8, Adam beta1 0.5) train from the same
+seed on the store's training split (held out by preset, as ``svtrain fit``) for a fixed wall-clock budget, and
+evaluate the held-out split (a fixed, evenly spaced subset of views, centre crops) at ~6 points along the way.
+Every point records training wall seconds, CPU seconds (this process + its loader workers), steps, the
+training loss and the held-out RMSEs (re-rendering and per map). Both baselines are evaluated once.
+
+The training step is ``svtrain fit``'s: the same ``build`` (seeded init, Adam, loss generator), ``make_loss``,
+``PairDataset`` and ``make_loader`` (loader workers, the batches of step t a pure function of (seed, t)); only
+the stopping rule differs (wall time instead of a step count), so a point at step n is the model
+``svtrain fit`` gives after n iterations with these settings. Evaluation time is not counted as training time.
+The loss compile (torch.compile, one-off, cached on disk) runs before the clock starts; whether it is used at
+all is decided by a short eager-vs-compiled timing of the loss at the start (``compile_probe``).
+
+Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/results/eval_budget.md`` (the
+compact default after its budget, model vs baselines) and ``docs/img/chart_training.png``
+(``benchmarks/charts_training.py``).
+
+    python3 benchmarks/bench_train_budget.py --store data/renders.zarr            # 3 x 10 min + evals
+    python3 benchmarks/bench_train_budget.py --widths 16 --budget-s 300 --lr 1e-3 --out /tmp/probe   # a probe
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+import torch
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from train.config import preset, resolve  # noqa: E402
+from train.data import PairDataset, make_loader, open_source, packed_maps, split_by_source  # noqa: E402
+from train.evaluate import COLUMNS, evaluate, markdown, metrics, train_means  # noqa: E402
+from train.fit import _seeded, build  # noqa: E402
+from train.loss import make_loss  # noqa: E402
+from train.net import count_parameters  # noqa: E402
+
+BASELINES = ("input_as_diffuse", "dataset_mean")
+#: eval points as fractions of the budget (plus step 0).
+FRACTIONS = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 3 / 4, 1.0)
+
+
+class CachedSource:
+    """The eval views read once into memory (centre crops), so that repeated evaluations cost no store reads.
+
+    ``evaluate`` centre-crops ``crop`` out of what ``image``/``packed`` return; a crop-sized array is its own
+    centre crop, so the result is the same as evaluating the store directly.
+    """
+
+    def __init__(self, src, indices, crop: int):
+        self.images, self.maps = {}, {}
+        if src is None:
+            return
+        for i in indices:
+            img = np.asarray(src.image(int(i)), np.float32)
+            mp = packed_maps(src, int(i))
+            y0, x0 = (img.shape[0] - crop) // 2, (img.shape[1] - crop) // 2
+            self.images[int(i)] = np.ascontiguousarray(img[y0:y0 + crop, x0:x0 + crop])
+            self.maps[int(i)] = np.ascontiguousarray(mp[y0:y0 + crop, x0:x0 + crop])
+        self.n = len(src)
+
+    def __len__(self) -> int:
+        return self.n
+
+    def image(self, i: int) -> np.ndarray:
+        return self.images[int(i)]
+
+    def packed(self, i: int) -> np.ndarray:
+        return self.maps[int(i)]
+
+
+def _prepare(data_cfg, eval_idx, train_idx, crop: int, seed: int) -> tuple:
+    """In a spawned process: read the eval views and the training means (both need drjit's map transform)."""
+    torch.set_num_threads(1)
+    src = open_source(data_cfg)
+    cache = CachedSource(src, eval_idx, crop)
+    return cache.images, cache.maps, len(src), train_means(src, train_idx, crop, seed).numpy()
+
+
+def prepare_eval(data_cfg, eval_idx, train_idx, crop: int, seed: int) -> tuple["CachedSource", torch.Tensor]:
+    """The eval cache and the baseline means, read in a child process.
+
+    This process must not run a drjit kernel before the loader forks its workers: a forked child inherits drjit's
+    thread pool without its threads, and the workers' ``drjit.set_thread_count(1)`` (train.data._one_thread), or any
+    kernel they launch, then waits forever (seen here: a hang at the first batch). ``svtrain fit`` is safe for the
+    same reason: its process reads no maps before forking.
+    """
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as ex:
+        images, maps, n, means = ex.submit(_prepare, data_cfg, eval_idx, train_idx, crop, seed).result()
+    cache = CachedSource(None, [], crop)
+    cache.images, cache.maps, cache.n = images, maps, n
+    return cache, torch.from_numpy(means)
+
+
+def cpu_seconds(proc: psutil.Process) -> float:
+    """user + system CPU seconds of this process and its live children (loader workers)."""
+    t = proc.cpu_times()
+    total = t.user + t.system
+    for c in proc.children(recursive=True):
+        try:
+            ct = c.cpu_times()
+            total += ct.user + ct.system
+        except psutil.Error:
+            pass
+    return total
+
+
+def make_cfg(a, base: int):
+    return resolve("compact", None, {
+        "data.store": a.store, "data.crop": a.crop, "data.workers": a.workers,
+        "model.base_width": base, "model.max_width": 8 * base, "model.levels": a.levels,
+        "optim.lr": a.lr, "optim.beta1": 0.5, "optim.batch_size": a.batch, "optim.seed": a.seed,
+        "optim.threads": a.threads, "optim.compile_loss": a.compile == "on"})
+
+
+def compile_probe(batch, crop: int, steps: int = 6) -> dict:
+    """s per loss forward+backward (fixed random maps), eager vs torch.compile (compile time reported apart)."""
+    g = torch.Generator().manual_seed(0)
+    target = torch.rand(batch, 10, crop, crop, generator=g)
+    pred0 = torch.rand(batch, 10, crop, crop, generator=g)
+    out = {}
+    for name, comp in (("eager", False), ("compiled", True)):
+        fn = make_loss(comp)
+        t0 = time.perf_counter()
+        p = pred0.clone().requires_grad_()
+        fn(p, target, torch.Generator().manual_seed(1)).backward()
+        first = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        for k in range(steps):
+            p = pred0.clone().requires_grad_()
+            fn(p, target, torch.Generator().manual_seed(2 + k)).backward()
+        out[name] = {"s_per_loss_step": (time.perf_counter() - t0) / steps, "first_call_s": round(first, 1)}
+    out["speedup"] = out["eager"]["s_per_loss_step"] / out["compiled"]["s_per_loss_step"]
+    return out
+
+
+def eval_batches_of(eval_src, eval_idx, crop: int, seed: int, batch: int = 8) -> list:
+    """The eval set as (image, maps) batches, built once (the same centre crops ``evaluate`` takes)."""
+    ds = PairDataset(eval_src, eval_idx, crop, seed, train=False)
+    out = []
+    for lo in range(0, len(ds), batch):
+        items = [ds[k] for k in range(lo, min(lo + batch, len(ds)))]
+        out.append((torch.stack([x[0] for x in items]), torch.stack([x[1] for x in items])))
+    return out
+
+
+@torch.no_grad()
+def eval_model(model, batches) -> dict:
+    """The model's mean RMSEs per column: ``evaluate``'s numbers without re-evaluating the fixed baselines
+    (``train.evaluate.metrics`` per batch, means over samples; checked against ``evaluate`` at the end)."""
+    model.eval()
+    acc = {c: [] for c in COLUMNS}
+    for img, gt in batches:
+        for c, v in metrics(model(img), gt).items():
+            acc[c].extend(v.tolist())
+    return {c: float(np.mean(v)) for c, v in acc.items()}
+
+
+def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, means) -> dict:
+    cfg = make_cfg(a, base)
+    o = cfg.optim
+    model, opt, gen = build(cfg)
+    loss_fn = make_loss(o.compile_loss)
+    ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
+    # one-off setup outside the clock: the loss compile (a separate generator: `gen` stays fit()'s stream; random
+    # maps of the batch's shape, no store read: see prepare_eval)
+    t0 = time.perf_counter()
+    warm = torch.rand(o.batch_size, 10, cfg.data.crop, cfg.data.crop, generator=torch.Generator().manual_seed(1))
+    loss_fn(warm.clone().requires_grad_(), warm, torch.Generator().manual_seed(12345)).backward()
+    setup_s = time.perf_counter() - t0
+    loader = make_loader(ds, o.batch_size, 0, 10 ** 9, cfg.data.workers)
+    loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
+    loader.timeout = 300  # a stuck worker fails the run instead of hanging it
+
+    proc = psutil.Process()
+    points, losses = [], []
+    marks = [f * a.budget_s for f in FRACTIONS]
+    step, eval_wall, eval_cpu = 0, 0.0, 0.0
+
+    def do_eval(train_wall: float, cpu0: float) -> None:
+        nonlocal eval_wall, eval_cpu
+        e0, c0 = time.perf_counter(), time.process_time()
+        m = eval_model(model, eval_batches)
+        model.train()
+        dt, dc = time.perf_counter() - e0, time.process_time() - c0
+        eval_wall += dt
+        eval_cpu += dc
+        pt = {"wall_s": round(train_wall, 1), "cpu_s": round(cpu_seconds(proc) - cpu0 - eval_cpu, 1), "steps": step,
+              "train_loss": float(np.mean(losses[-50:])) if losses else None,
+              **{c: m[c] for c in COLUMNS}, "mean_rmse": float(np.mean([m[c] for c in COLUMNS])),
+              "eval_s": round(dt, 1), "load1": round(os.getloadavg()[0], 2)}
+        points.append(pt)
+        print(json.dumps({"base_width": base, **{k: (round(v, 4) if isinstance(v, float) else v)
+                                                 for k, v in pt.items()}}), flush=True)
+
+    it = iter(loader)
+    model.train()
+    t_start, cpu_start = time.perf_counter(), cpu_seconds(proc)
+    do_eval(0.0, cpu_start)
+    load0 = os.getloadavg()[0]
+    while True:
+        train_wall = time.perf_counter() - t_start - eval_wall  # evaluations are not training time
+        if marks and train_wall >= marks[0]:
+            while marks and train_wall >= marks[0]:
+                marks.pop(0)
+            do_eval(train_wall, cpu_start)
+            if not marks:
+                break
+        image, maps = next(it)
+        loss = loss_fn(model(image), maps, gen)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        losses.append(float(loss.detach()))
+        step += 1
+    del it
+    final = points[-1]
+    ref = None
+    if base == preset("compact").model.base_width:  # the authoritative table, for the compact default
+        ref = evaluate(model, eval_src, eval_idx, cfg.data.crop, means, 8, o.seed)
+        ref["matches_points"] = all(abs(ref["model"][c] - final[c]) < 1e-5 for c in COLUMNS)
+    return {"base_width": base, "max_width": 8 * base, "levels": cfg.model.levels,
+            "parameters": count_parameters(model), "setup_s": round(setup_s, 1), "steps": step,
+            "it_per_s": round(step / final["wall_s"], 3), "cpu_s_per_step": round(final["cpu_s"] / max(step, 1), 3),
+            "load1_start": round(load0, 2), "points": points,
+            "final": {c: final[c] for c in (*COLUMNS, "mean_rmse")}, "evaluate": ref,
+            "loss_curve": [float(np.mean(losses[k:k + 25])) for k in range(0, len(losses), 25)]}
+
+
+def choose(rows: list[dict], key: str, tol: float) -> int:
+    """The smallest width whose final ``key`` error is within ``tol`` of the next larger width's."""
+    rows = sorted(rows, key=lambda r: r["base_width"])
+    for small, large in zip(rows, rows[1:]):
+        if small["final"][key] <= large["final"][key] * (1 + tol):
+            return small["base_width"]
+    return rows[-1]["base_width"]
+
+
+def write_csv(path: Path, rows: list[dict], baselines: dict) -> None:
+    cols = ["series", "base_width", "parameters", "wall_s", "cpu_s", "steps", "train_loss", *COLUMNS, "mean_rmse"]
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        for r in rows:
+            for p in r["points"]:
+                w.writerow([f"width_{r['base_width']}", r["base_width"], r["parameters"], p["wall_s"], p["cpu_s"],
+                            p["steps"], "" if p["train_loss"] is None else f"{p['train_loss']:.5f}",
+                            *(f"{p[c]:.5f}" for c in COLUMNS), f"{p['mean_rmse']:.5f}"])
+        for name, m in baselines.items():
+            w.writerow([name, "", "", "", "", "", "", *(f"{m[c]:.5f}" for c in COLUMNS),
+                        f"{np.mean([m[c] for c in COLUMNS]):.5f}"])
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--store", default=str(ROOT / "data" / "renders.zarr"))
+    ap.add_argument("--widths", type=int, nargs="+", default=[8, 16, 32])
+    ap.add_argument("--budget-s", type=float, default=600.0, help="training wall seconds per width")
+    ap.add_argument("--lr", type=float, default=2e-4)
+    ap.add_argument("--batch", type=int, default=8)
+    ap.add_argument("--crop", type=int, default=128)
+    ap.add_argument("--levels", type=int, default=7)
+    ap.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
+    ap.add_argument("--workers", type=int, default=2, help="DataLoader workers (as svtrain fit)")
+    ap.add_argument("--compile", choices=("auto", "on", "off"), default="auto",
+                    help="torch.compile the loss (auto: when the probe shows it is faster)")
+    ap.add_argument("--eval-views", type=int, default=200, help="held-out views evaluated (evenly spaced subset)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--tol", type=float, default=0.05, help="'within a few %%' of the width rule")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results"), help="output folder")
+    ap.add_argument("--png", default=str(ROOT / "docs" / "img" / "chart_training.png"), help="chart ('' = none)")
+    a = ap.parse_args(argv)
+    torch.set_num_threads(a.threads)
+    t_all = time.time()
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    probe = compile_probe(a.batch, a.crop)
+    if a.compile == "auto":
+        a.compile = "on" if probe["speedup"] > 1.1 else "off"
+    print(json.dumps({"compile_probe": probe, "compile": a.compile}), flush=True)
+
+    cfg0 = make_cfg(a, a.widths[0])
+    src = open_source(cfg0.data)
+    train_idx, test_idx = split_by_source(src, cfg0.data.holdout, a.seed)
+    n_eval = min(a.eval_views, len(test_idx))
+    eval_idx = test_idx[np.unique(np.linspace(0, len(test_idx) - 1, n_eval).round().astype(np.int64))]
+    t0 = time.perf_counter()
+    eval_src, means = prepare_eval(cfg0.data, eval_idx, train_idx, a.crop, a.seed)
+    base = evaluate(None, eval_src, eval_idx, a.crop, means, 8, a.seed)
+    baselines = {b: base[b] for b in BASELINES}
+    print(json.dumps({"baselines": baselines, "eval_views": int(len(eval_idx)),
+                      "prep_s": round(time.perf_counter() - t0, 1)}), flush=True)
+
+    eval_batches = eval_batches_of(eval_src, eval_idx, a.crop, a.seed)
+    rows = [run_width(a, w, src, train_idx, eval_src, eval_idx, eval_batches, means) for w in sorted(a.widths)]
+
+    default = preset("compact").model.base_width
+    chosen = {k: choose(rows, k, a.tol) for k in ("rerender", "mean_rmse")} if len(rows) > 1 else {}
+    by_w = {r["base_width"]: r for r in rows}
+    eval_budget = None
+    if default in by_w:
+        ref = by_w[default]["evaluate"]
+        m = ref["model"]
+        eval_budget = {"model": {c: m[c] for c in COLUMNS}, **{b: ref[b] for b in BASELINES}, "samples": int(len(eval_idx)),
+                       "base_width": default, "steps": by_w[default]["steps"], "wall_s": a.budget_s,
+                       "beats_baselines": {c: all(m[c] < ref[b][c] for b in BASELINES) for c in COLUMNS}}
+        md = markdown({**eval_budget, "suite": f"heldout (width {default}, {a.budget_s:.0f} s)"})
+        (out / "eval_budget.md").write_text(
+            f"# Compact default (base width {default}) after {a.budget_s:.0f} s of training "
+            f"({by_w[default]['steps']} steps, lr {a.lr:g})\n\n{md}\n"
+            f"beats every baseline on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if v) or 'none'}"
+            f"; not on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if not v) or 'none'}\n")
+    res = {"benchmark": "bench_train_budget", "command": "python3 benchmarks/bench_train_budget.py "
+           + " ".join(argv if argv is not None else sys.argv[1:]),
+           "store": a.store, "budget_wall_s": a.budget_s, "lr": a.lr, "beta1": 0.5, "batch_size": a.batch,
+           "crop": a.crop, "levels": a.levels, "max_width": "8 x base", "threads": a.threads,
+           "loader_workers": a.workers, "compile_loss": a.compile == "on", "compile_probe": probe, "seed": a.seed,
+           "split": {"train_views": int(len(train_idx)), "heldout_views": int(len(test_idx)),
+                     "eval_views": int(len(eval_idx)), "by": "preset (data.holdout of the compact preset)"},
+           "baselines": baselines, "widths": rows, "compact_default": default, "eval_budget": eval_budget,
+           "tolerance": a.tol, "chosen_base_width": chosen,
+           "rule": "smallest width whose eval error at the end of the budget is within tolerance of the next "
+                   "larger width's (rerender RMSE; mean of the five columns alongside)",
+           "cpus": os.cpu_count(), "machine": platform.machine(), "torch": torch.__version__,
+           "load1_end": round(os.getloadavg()[0], 2), "total_wall_s": round(time.time() - t_all, 1)}
+    (out / "train_budget.json").write_text(json.dumps(res, indent=2) + "\n")
+    write_csv(out / "train_budget.csv", rows, baselines)
+    if a.png:
+        sys.path.insert(0, str(Path(__file__).parent))
+        from charts_training import plot
+
+        plot(out / "train_budget.json", a.png)
+    print(f"chosen base width: {chosen}; wrote {out / 'train_budget.json'}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
