@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from train.config import resolve  # noqa: E402
 from train.data import PairDataset, make_loader, split_by_source  # noqa: E402
-from train.fit import build  # noqa: E402
+from train.fit import build, train_step  # noqa: E402
 from train.loss import make_loss  # noqa: E402
 from train.net import count_parameters  # noqa: E402
 from train.synthetic import SyntheticSource  # noqa: E402
@@ -41,11 +41,7 @@ def bench_steps(cfg, src, train_idx, steps: int, compile_loss: bool) -> dict:
 
     def step(t):
         img, maps = batches[t % len(batches)]
-        loss = loss_fn(model(img), maps, gen)
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-        return loss.item()
+        return train_step(model, opt, loss_fn, img, maps, gen, cfg.optim, t)[0]
 
     t0 = time.perf_counter()
     step(0)  # warm-up (and the one-off compile)

@@ -6,15 +6,16 @@ evaluate the held-out split (a fixed, evenly spaced subset of views, centre crop
 Every point records training wall seconds, CPU seconds (this process + its loader workers), steps, the
 training loss and the held-out RMSEs (re-rendering and per map). Both baselines are evaluated once.
 
-The training step is ``svtrain fit``'s: the same ``build`` (seeded init, Adam, loss generator), ``make_loss``,
-``PairDataset`` and ``make_loader`` (loader workers, the batches of step t a pure function of (seed, t)); only
-the stopping rule differs (wall time instead of a step count), so a point at step n is the model
-``svtrain fit`` gives after n iterations with these settings. Evaluation time is not counted as training time.
-The loss compile (torch.compile, one-off, cached on disk) runs before the clock starts; whether it is used at
-all is decided by a short eager-vs-compiled timing of the loss at the start (``compile_probe``).
+The budget becomes a step count before each run (``calibrate_steps``: it/s of a short throwaway run of the same
+width), because a learning-rate schedule needs ``optim.iterations`` up front. The run is then ``svtrain fit``'s:
+the same ``build`` (seeded init, Adam, loss generator), ``train_step`` (schedule, gradient clipping),
+``make_loss``, ``PairDataset`` and ``make_loader`` (the batches of step t a pure function of (seed, t)), so the
+final point is the model ``svtrain fit`` gives with ``optim.iterations`` = that step count. Evaluation time is not
+counted as training time. The loss compile (torch.compile, one-off, cached on disk) runs before the clock starts;
+whether it is used at all is decided by a short eager-vs-compiled timing of the loss at the start.
 
 Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/results/eval_budget.md`` (the
-compact default after its budget, model vs baselines) and ``docs/img/chart_training.png``
+``--table-width`` model, by default the compact one, after its budget, model vs baselines) and ``docs/img/chart_training.png``
 (``benchmarks/charts_training.py``).
 
     python3 benchmarks/bench_train_budget.py --store data/renders.zarr            # 3 x 10 min + evals
@@ -41,7 +42,7 @@ sys.path.insert(0, str(ROOT))
 from train.config import preset, resolve  # noqa: E402
 from train.data import PairDataset, make_loader, open_source, packed_maps, split_by_source  # noqa: E402
 from train.evaluate import COLUMNS, evaluate, markdown, metrics, train_means  # noqa: E402
-from train.fit import _seeded, build  # noqa: E402
+from train.fit import _seeded, build, lr_at, train_step  # noqa: E402
 from train.loss import make_loss  # noqa: E402
 from train.net import count_parameters  # noqa: E402
 
@@ -123,7 +124,8 @@ def make_cfg(a, base: int):
         "data.store": a.store, "data.crop": a.crop, "data.workers": a.workers,
         "model.base_width": base, "model.max_width": 8 * base, "model.levels": a.levels,
         "optim.lr": a.lr, "optim.beta1": 0.5, "optim.batch_size": a.batch, "optim.seed": a.seed,
-        "optim.threads": a.threads, "optim.compile_loss": a.compile == "on"})
+        "optim.threads": a.threads, "optim.compile_loss": a.compile == "on", "optim.grad_clip": a.grad_clip,
+        "optim.schedule": a.schedule})
 
 
 def compile_probe(batch, crop: int, steps: int = 6) -> dict:
@@ -169,25 +171,42 @@ def eval_model(model, batches) -> dict:
     return {c: float(np.mean(v)) for c, v in acc.items()}
 
 
-def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, means) -> dict:
-    cfg = make_cfg(a, base)
+def calibrate_steps(a, cfg, ds, budget_s: float, probe_steps: int = 30, skip: int = 5) -> tuple[int, float]:
+    """Steps that fill ``budget_s`` of training wall time: it/s of ``probe_steps`` steps (the first ``skip``
+    untimed) of a throwaway model of the same width on the same loader. A learning-rate schedule needs the step
+    count before the run starts, so the budget becomes ``optim.iterations``, as ``svtrain fit`` would be given."""
     o = cfg.optim
     model, opt, gen = build(cfg)
     loss_fn = make_loss(o.compile_loss)
-    ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
-    # one-off setup outside the clock: the loss compile (a separate generator: `gen` stays fit()'s stream; random
-    # maps of the batch's shape, no store read: see prepare_eval)
+    loader = make_loader(ds, o.batch_size, 0, probe_steps, cfg.data.workers)
+    loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
+    t0 = None
+    for k, (image, maps) in enumerate(loader):
+        if k == skip:
+            t0 = time.perf_counter()
+        train_step(model, opt, loss_fn, image, maps, gen, o, k)
+    rate = (probe_steps - skip) / (time.perf_counter() - t0)
+    return max(1, int(round(budget_s * rate))), rate
+
+
+def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, means) -> dict:
+    cfg = make_cfg(a, base)
+    ds = PairDataset(src, train_idx, cfg.data.crop, cfg.optim.seed, train=True, flips=cfg.data.augment)
+    # one-off setup outside the clock: the loss compile (inside the first probe step) and the step count
     t0 = time.perf_counter()
-    warm = torch.rand(o.batch_size, 10, cfg.data.crop, cfg.data.crop, generator=torch.Generator().manual_seed(1))
-    loss_fn(warm.clone().requires_grad_(), warm, torch.Generator().manual_seed(12345)).backward()
+    iterations, probe_rate = calibrate_steps(a, cfg, ds, a.budget_s)
     setup_s = time.perf_counter() - t0
-    loader = make_loader(ds, o.batch_size, 0, 10 ** 9, cfg.data.workers)
+    cfg.optim.iterations = iterations
+    o = cfg.optim
+    model, opt, gen = build(cfg)
+    loss_fn = make_loss(o.compile_loss)
+    loader = make_loader(ds, o.batch_size, 0, iterations, cfg.data.workers)
     loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
     loader.timeout = 300  # a stuck worker fails the run instead of hanging it
 
     proc = psutil.Process()
-    points, losses = [], []
-    marks = [f * a.budget_s for f in FRACTIONS]
+    points, losses, norms = [], [], []
+    marks = sorted({max(1, int(round(f * iterations))) for f in FRACTIONS})
     step, eval_wall, eval_cpu = 0, 0.0, 0.0
 
     def do_eval(train_wall: float, cpu0: float) -> None:
@@ -199,45 +218,39 @@ def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, me
         eval_wall += dt
         eval_cpu += dc
         pt = {"wall_s": round(train_wall, 1), "cpu_s": round(cpu_seconds(proc) - cpu0 - eval_cpu, 1), "steps": step,
+              "lr": lr_at(o, max(step - 1, 0)),
               "train_loss": float(np.mean(losses[-50:])) if losses else None,
+              "grad_norm": float(np.median(norms[-50:])) if norms else None,
               **{c: m[c] for c in COLUMNS}, "mean_rmse": float(np.mean([m[c] for c in COLUMNS])),
               "eval_s": round(dt, 1), "load1": round(os.getloadavg()[0], 2)}
         points.append(pt)
         print(json.dumps({"base_width": base, **{k: (round(v, 4) if isinstance(v, float) else v)
                                                  for k, v in pt.items()}}), flush=True)
 
-    it = iter(loader)
     model.train()
     t_start, cpu_start = time.perf_counter(), cpu_seconds(proc)
     do_eval(0.0, cpu_start)
     load0 = os.getloadavg()[0]
-    while True:
-        train_wall = time.perf_counter() - t_start - eval_wall  # evaluations are not training time
-        if marks and train_wall >= marks[0]:
-            while marks and train_wall >= marks[0]:
-                marks.pop(0)
-            do_eval(train_wall, cpu_start)
-            if not marks:
-                break
-        image, maps = next(it)
-        loss = loss_fn(model(image), maps, gen)
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
-        losses.append(float(loss.detach()))
+    for image, maps in loader:
+        loss, norm = train_step(model, opt, loss_fn, image, maps, gen, o, step)
+        losses.append(loss)
+        norms.append(norm)
         step += 1
-    del it
+        if step == marks[0]:
+            marks.pop(0)
+            do_eval(time.perf_counter() - t_start - eval_wall, cpu_start)  # evaluations are not training time
     final = points[-1]
     ref = None
-    if base == preset("compact").model.base_width:  # the authoritative table, for the compact default
+    if base == a.table_width:  # the authoritative table (svtrain eval's code), for the width under study
         ref = evaluate(model, eval_src, eval_idx, cfg.data.crop, means, 8, o.seed)
         ref["matches_points"] = all(abs(ref["model"][c] - final[c]) < 1e-5 for c in COLUMNS)
     return {"base_width": base, "max_width": 8 * base, "levels": cfg.model.levels,
-            "parameters": count_parameters(model), "setup_s": round(setup_s, 1), "steps": step,
-            "it_per_s": round(step / final["wall_s"], 3), "cpu_s_per_step": round(final["cpu_s"] / max(step, 1), 3),
-            "load1_start": round(load0, 2), "points": points,
-            "final": {c: final[c] for c in (*COLUMNS, "mean_rmse")}, "evaluate": ref,
-            "loss_curve": [float(np.mean(losses[k:k + 25])) for k in range(0, len(losses), 25)]}
+            "parameters": count_parameters(model), "setup_s": round(setup_s, 1), "probe_it_per_s": round(probe_rate, 3),
+            "steps": step, "it_per_s": round(step / final["wall_s"], 3),
+            "cpu_s_per_step": round(final["cpu_s"] / max(step, 1), 3), "load1_start": round(load0, 2),
+            "points": points, "final": {c: final[c] for c in (*COLUMNS, "mean_rmse")}, "evaluate": ref,
+            "loss_curve": [float(np.mean(losses[k:k + 25])) for k in range(0, len(losses), 25)],
+            "grad_norm_quantiles": {q: float(np.quantile(norms, q / 100)) for q in (50, 90, 99)} if norms else None}
 
 
 def choose(rows: list[dict], key: str, tol: float) -> int:
@@ -270,6 +283,11 @@ def main(argv=None) -> None:
     ap.add_argument("--widths", type=int, nargs="+", default=[8, 16, 32])
     ap.add_argument("--budget-s", type=float, default=600.0, help="training wall seconds per width")
     ap.add_argument("--lr", type=float, default=2e-4)
+    ap.add_argument("--grad-clip", type=float, default=preset("compact").optim.grad_clip,
+                    help="optim.grad_clip (0 = off)")
+    ap.add_argument("--schedule", choices=("constant", "cosine"), default=preset("compact").optim.schedule)
+    ap.add_argument("--table-width", type=int, default=preset("compact").model.base_width,
+                    help="the width whose end-of-budget eval table is written (eval_budget.md)")
     ap.add_argument("--batch", type=int, default=8)
     ap.add_argument("--crop", type=int, default=128)
     ap.add_argument("--levels", type=int, default=7)
@@ -308,7 +326,7 @@ def main(argv=None) -> None:
     eval_batches = eval_batches_of(eval_src, eval_idx, a.crop, a.seed)
     rows = [run_width(a, w, src, train_idx, eval_src, eval_idx, eval_batches, means) for w in sorted(a.widths)]
 
-    default = preset("compact").model.base_width
+    default = a.table_width
     chosen = {k: choose(rows, k, a.tol) for k in ("rerender", "mean_rmse")} if len(rows) > 1 else {}
     by_w = {r["base_width"]: r for r in rows}
     eval_budget = None
@@ -320,13 +338,14 @@ def main(argv=None) -> None:
                        "beats_baselines": {c: all(m[c] < ref[b][c] for b in BASELINES) for c in COLUMNS}}
         md = markdown({**eval_budget, "suite": f"heldout (width {default}, {a.budget_s:.0f} s)"})
         (out / "eval_budget.md").write_text(
-            f"# Compact default (base width {default}) after {a.budget_s:.0f} s of training "
-            f"({by_w[default]['steps']} steps, lr {a.lr:g})\n\n{md}\n"
+            f"# Base width {default} after {a.budget_s:.0f} s of training "
+            f"({by_w[default]['steps']} steps, lr {a.lr:g} {a.schedule}, grad clip {a.grad_clip:g})\n\n{md}\n"
             f"beats every baseline on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if v) or 'none'}"
             f"; not on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if not v) or 'none'}\n")
     res = {"benchmark": "bench_train_budget", "command": "python3 benchmarks/bench_train_budget.py "
            + " ".join(argv if argv is not None else sys.argv[1:]),
-           "store": a.store, "budget_wall_s": a.budget_s, "lr": a.lr, "beta1": 0.5, "batch_size": a.batch,
+           "store": a.store, "budget_wall_s": a.budget_s, "lr": a.lr, "schedule": a.schedule,
+           "grad_clip": a.grad_clip, "beta1": 0.5, "batch_size": a.batch,
            "crop": a.crop, "levels": a.levels, "max_width": "8 x base", "threads": a.threads,
            "loader_workers": a.workers, "compile_loss": a.compile == "on", "compile_probe": probe, "seed": a.seed,
            "split": {"train_views": int(len(train_idx)), "heldout_views": int(len(test_idx)),

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from train.config import resolve
-from train.fit import build, fit
+from train.fit import build, fit, lr_at, train_step
 from train.loss import make_loss
 from train.synthetic import SyntheticSource
 
@@ -39,8 +39,10 @@ def test_tiny_fit_lowers_loss_on_fixed_batch(src):
     assert after < 0.8 * before
 
 
-def test_resume_equals_uninterrupted(src, tmp_path):
-    cfg = resolve("compact", None, {**TINY, "optim.iterations": 8})
+@pytest.mark.parametrize("optim", [{"optim.schedule": "constant", "optim.grad_clip": 0.0},
+                                   {"optim.schedule": "cosine", "optim.grad_clip": 0.05}], ids=["constant", "cosine_clip"])
+def test_resume_equals_uninterrupted(src, tmp_path, optim):
+    cfg = resolve("compact", None, {**TINY, **optim, "optim.iterations": 8})
     full = fit(cfg, tmp_path / "a", source=src)
     fit(cfg, tmp_path / "b", source=src, stop_after=4)  # "interrupted" after 4 steps (checkpoint at 3 and 4)
     ck = torch.load(tmp_path / "b" / "checkpoint.pt", weights_only=False)
@@ -52,7 +54,8 @@ def test_resume_equals_uninterrupted(src, tmp_path):
         assert torch.equal(a[k], b[k]), k
     assert full["loss_final"] == resumed["loss_final"]
     # a different seed gives a different run (the check above can fail)
-    other = fit(resolve("compact", None, {**TINY, "optim.iterations": 8, "optim.seed": 1}), tmp_path / "c", source=src)
+    other = fit(resolve("compact", None, {**TINY, **optim, "optim.iterations": 8, "optim.seed": 1}), tmp_path / "c",
+                source=src)
     assert other["loss_final"] != full["loss_final"]
 
 
@@ -65,3 +68,30 @@ def test_outputs_written(src, tmp_path):
     assert m["step"] == 5 and m["done"] and m["it_per_s"] > 0
     rows = (tmp_path / "loss.csv").read_text().splitlines()
     assert rows[0] == "step,loss" and rows[-1].startswith("5,")
+
+
+def test_lr_schedule():
+    o = resolve("compact", None, {"optim.lr": 1e-3, "optim.iterations": 101, "optim.schedule": "cosine",
+                                  "optim.lr_final": 0.1}).optim
+    lrs = [lr_at(o, t) for t in range(o.iterations)]
+    assert lrs[0] == pytest.approx(1e-3) and lrs[-1] == pytest.approx(1e-4)
+    assert lrs[50] == pytest.approx(0.55e-3)  # halfway: the mean of the two ends
+    assert all(a >= b for a, b in zip(lrs, lrs[1:]))
+    o.schedule = "constant"
+    assert {lr_at(o, t) for t in range(o.iterations)} == {1e-3}
+
+
+def test_grad_clip_bounds_the_gradient(src):
+    """After a clipped step the gradient's global norm is the clip value; unclipped it is larger (can fail)."""
+    img = torch.stack([torch.from_numpy(src.image(i)[:32, :32]).permute(2, 0, 1) for i in range(2)])
+    maps = torch.stack([torch.from_numpy(src.packed(i)[:32, :32]).permute(2, 0, 1) for i in range(2)])
+    norms = {}
+    for clip in (0.0, 1e-3):
+        cfg = resolve("compact", None, {**TINY, "optim.grad_clip": clip})
+        model, opt, gen = build(cfg)
+        _, before = train_step(model, opt, make_loss(False), img, maps, gen, cfg.optim, 0)
+        after = torch.linalg.vector_norm(torch.stack([p.grad.norm() for p in model.parameters() if p.grad is not None]))
+        norms[clip] = (before, float(after))
+    assert norms[0.0][0] == pytest.approx(norms[0.0][1], rel=1e-5) and norms[0.0][1] > 1e-2
+    assert norms[1e-3][0] == pytest.approx(norms[0.0][0], rel=1e-5)  # same init, same batch: same raw gradient
+    assert norms[1e-3][1] == pytest.approx(1e-3, rel=1e-3)

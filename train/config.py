@@ -16,6 +16,10 @@ import yaml
 from pipeline.errors import ConfigError
 
 
+#: learning-rate schedules of OptimConfig.schedule (train.fit.lr_at).
+SCHEDULES = ("constant", "cosine")
+
+
 @dataclass
 class ModelConfig:
     """U-Net + global-feature track."""
@@ -86,6 +90,13 @@ class OptimConfig:
     """steps between rows of the loss log."""
     threads: int = 0
     """torch intra-op threads (0 = torch's default)."""
+    grad_clip: float = 0.0
+    """largest global gradient norm per step, 0 = no clipping (the paper clips nothing)."""
+    schedule: str = "constant"
+    """learning rate over the run: "constant" (the paper) or "cosine" (from lr down to lr·lr_final at the last of
+    ``iterations``, a pure function of the step, so resumed runs see the same rates)."""
+    lr_final: float = 0.05
+    """last learning rate of the cosine schedule as a fraction of lr."""
     compile_loss: bool = True
     """torch.compile the loss renderer (fuses ~60 elementwise ops: ~4x faster on CPU after a one-off
     compile of 20-80 s, cached on disk by inductor); off in tests."""
@@ -123,6 +134,9 @@ class Config:
             (o.batch_size >= 1 and o.iterations >= 0, "optim.batch_size >= 1, optim.iterations >= 0"),
             (o.checkpoint_every >= 1 and o.log_every >= 1, "optim.checkpoint_every/log_every >= 1"),
             (o.seed >= 0, "optim.seed must be >= 0"),
+            (o.grad_clip >= 0, "optim.grad_clip must be >= 0 (0 = off)"),
+            (o.schedule in SCHEDULES, f"optim.schedule must be one of {', '.join(SCHEDULES)}"),
+            (0.0 <= o.lr_final <= 1.0, "optim.lr_final must be in [0, 1]"),
         ]
         for ok, msg in checks:
             if not ok:

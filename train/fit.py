@@ -11,6 +11,7 @@ Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (ful
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
@@ -18,13 +19,13 @@ import numpy as np
 import torch
 import yaml
 
-from pipeline.errors import ConfigError
+from pipeline.errors import ConfigError, SvgenError
 from pipeline.log import get_logger
 from pipeline.progress import progress
 from pipeline.seeds import derive_seed
 
 from . import checkpoint
-from .config import Config
+from .config import Config, OptimConfig
 from .data import PairDataset, make_loader, open_source, split_by_source
 from .loss import make_loss
 from .net import SVBRDFNet, count_parameters
@@ -45,6 +46,36 @@ def build(cfg: Config) -> tuple[SVBRDFNet, torch.optim.Optimizer, torch.Generato
     gen = torch.Generator().manual_seed(_seeded(o.seed, 1))
     torch.manual_seed(_seeded(o.seed, 2))  # the dropout stream
     return model, opt, gen
+
+
+def lr_at(o: OptimConfig, step: int) -> float:
+    """Learning rate of step ``step`` (0-based) of a run of ``o.iterations`` steps."""
+    if o.schedule == "constant" or o.iterations <= 1:
+        return o.lr
+    t = min(step, o.iterations - 1) / (o.iterations - 1)
+    return o.lr * (o.lr_final + (1.0 - o.lr_final) * 0.5 * (1.0 + math.cos(math.pi * t)))
+
+
+def train_step(model: SVBRDFNet, opt: torch.optim.Optimizer, loss_fn, image: torch.Tensor, maps: torch.Tensor,
+               gen: torch.Generator, o: OptimConfig, step: int) -> tuple[float, float]:
+    """One optimisation step of ``svtrain fit`` (benchmarks call this too, so they measure the same step).
+
+    Args:
+        image: (B, 3, H, W) linear input photos. maps: (B, 10, H, W) packed target maps.
+        step: 0-based index of this step (sets the scheduled learning rate).
+
+    Returns:
+        (loss, gradient norm before clipping).
+    """
+    for group in opt.param_groups:
+        group["lr"] = lr_at(o, step)
+    loss = loss_fn(model(image), maps, gen)
+    opt.zero_grad(set_to_none=True)
+    loss.backward()
+    # clip_grad_norm_ with max_norm=inf only measures the norm (same code path, no rescale)
+    norm = torch.nn.utils.clip_grad_norm_(model.parameters(), o.grad_clip if o.grad_clip > 0 else math.inf)
+    opt.step()
+    return float(loss.detach()), float(norm)
 
 
 def _write_outputs(out: Path, cfg: Config, losses: list[float], extra: dict) -> dict:
@@ -143,11 +174,11 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
             loader = make_loader(ds, o.batch_size, start, stop, cfg.data.workers)
             loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
             for image, maps in loader:
-                loss = loss_fn(model(image), maps, gen)
-                opt.zero_grad(set_to_none=True)
-                loss.backward()
-                opt.step()
-                losses.append(float(loss.detach()))
+                loss, _ = train_step(model, opt, loss_fn, image, maps, gen, o, step)
+                if not math.isfinite(loss):  # the weights are now non-finite too: keep the last good checkpoint
+                    raise SvgenError(f"the loss became {loss} at step {step}: lower optim.lr or set optim.grad_clip "
+                                     f"(the last checkpoint in {out} is from before it)")
+                losses.append(loss)
                 step += 1
                 bar.update(1)
                 bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}")
