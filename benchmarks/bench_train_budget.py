@@ -39,7 +39,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.config import preset, resolve  # noqa: E402
+from train.config import parse_overrides, preset, resolve  # noqa: E402
 from train.data import PairDataset, make_loader, open_source, packed_maps, split_by_source  # noqa: E402
 from train.evaluate import COLUMNS, evaluate, markdown, metrics, train_means  # noqa: E402
 from train.fit import _seeded, build, lr_at, train_step  # noqa: E402
@@ -120,7 +120,7 @@ def cpu_seconds(proc: psutil.Process) -> float:
 
 
 def make_cfg(a, base: int):
-    return resolve("compact", None, {
+    return resolve("compact", None, {**parse_overrides(a.set),
         "data.store": a.store, "data.crop": a.crop, "data.workers": a.workers,
         "model.base_width": base, "model.max_width": 8 * base, "model.levels": a.levels,
         "optim.lr": a.lr, "optim.beta1": 0.5, "optim.batch_size": a.batch, "optim.seed": a.seed,
@@ -171,9 +171,10 @@ def eval_model(model, batches) -> dict:
     return {c: float(np.mean(v)) for c, v in acc.items()}
 
 
-def calibrate_steps(a, cfg, ds, budget_s: float, probe_steps: int = 30, skip: int = 5) -> tuple[int, float]:
+def calibrate_steps(a, cfg, ds, budget_s: float, probe_steps: int = 60, skip: int = 20) -> tuple[int, float]:
     """Steps that fill ``budget_s`` of training wall time: it/s of ``probe_steps`` steps (the first ``skip``
-    untimed) of a throwaway model of the same width on the same loader. A learning-rate schedule needs the step
+    untimed: loader workers starting, first batches and the loss compile are slower) of a throwaway model of the
+    same width on the same loader. A learning-rate schedule needs the step
     count before the run starts, so the budget becomes ``optim.iterations``, as ``svtrain fit`` would be given."""
     o = cfg.optim
     model, opt, gen = build(cfg)
@@ -288,6 +289,8 @@ def main(argv=None) -> None:
     ap.add_argument("--schedule", choices=("constant", "cosine"), default=preset("compact").optim.schedule)
     ap.add_argument("--table-width", type=int, default=preset("compact").model.base_width,
                     help="the width whose end-of-budget eval table is written (eval_budget.md)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="any other config override, as svtrain fit --set (repeatable)")
     ap.add_argument("--batch", type=int, default=8)
     ap.add_argument("--crop", type=int, default=128)
     ap.add_argument("--levels", type=int, default=7)
@@ -344,7 +347,7 @@ def main(argv=None) -> None:
             f"; not on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if not v) or 'none'}\n")
     res = {"benchmark": "bench_train_budget", "command": "python3 benchmarks/bench_train_budget.py "
            + " ".join(argv if argv is not None else sys.argv[1:]),
-           "store": a.store, "budget_wall_s": a.budget_s, "lr": a.lr, "schedule": a.schedule,
+           "store": a.store, "overrides": a.set, "budget_wall_s": a.budget_s, "lr": a.lr, "schedule": a.schedule,
            "grad_clip": a.grad_clip, "beta1": 0.5, "batch_size": a.batch,
            "crop": a.crop, "levels": a.levels, "max_width": "8 x base", "threads": a.threads,
            "loader_workers": a.workers, "compile_loss": a.compile == "on", "compile_probe": probe, "seed": a.seed,

@@ -6,7 +6,8 @@
 1. render: time per view against error to a converged reference (bench_render_quality.py), default marked;
 2. training: held-out re-render RMSE against training wall time per width (bench_train_budget.py);
 3. scale-out: views/s against dask workers, local and a loopback cluster (bench_scaleout.py);
-4. agreement: torch flash render against Mitsuba at increasing spp (bench_agreement.py).
+4. agreement: torch flash render against Mitsuba at increasing spp (bench_agreement.py);
+5. stress: the pipeline's stress-suite evaluation beside its held-out one (runs/eval*, written by `dvc repro`).
 A chart whose results file is missing is skipped with a note (run its benchmark first).
 """
 from __future__ import annotations
@@ -85,6 +86,25 @@ def chart_scaleout() -> Path | None:
     return _save(fig, "chart_scaleout.png")
 
 
+def chart_stress() -> Path | None:
+    """The pipeline's own evaluations (``dvc repro``: runs/eval, runs/eval_stress): every stress category beside the
+    held-out test set, model against both baselines."""
+    paths = {"heldout": ROOT / "runs" / "eval" / "eval.json", "stress": ROOT / "runs" / "eval_stress" / "eval.json"}
+    if not all(p.exists() for p in paths.values()):
+        return None
+    sys.path.insert(0, str(ROOT))
+    from train.eval_chart import groups_of, plot_eval
+
+    groups = {}
+    for name, p in paths.items():
+        groups.update({f"{name}: {g}" if name == "heldout" else g: r
+                       for g, r in groups_of(json.loads(p.read_text())).items()})
+    _write_csv(CSV / "chart_stress.csv", [{"group": g, "method": m, **r[m]} for g, r in groups.items()
+                                          for m in ("model", "input_as_diffuse", "dataset_mean")])
+    return plot_eval(groups, IMG / "chart_stress.png", "Stress categories beside the held-out test set "
+                     "(dvc repro default model; bar labels: views)")
+
+
 def _external(module: str, func: str, json_name: str, png: str) -> Path | None:
     """Charts whose plotting lives beside their benchmark: ``func(json_path, png_path)``."""
     path = ROOT / "benchmarks" / f"{module}.py"
@@ -119,7 +139,8 @@ def main(argv=None) -> int:
                                                             "chart_training.png"),
             "scale-out": chart_scaleout(),
             "agreement": _external("charts_agreement", "chart_agreement", "agreement.json",
-                                       "chart_agreement.png")}
+                                       "chart_agreement.png"),
+            "stress": chart_stress()}
     for name, p in made.items():
         print(f"{name:10s} {p if p else 'skipped: run its benchmark first'}")
     return 0

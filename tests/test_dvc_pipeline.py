@@ -1,6 +1,6 @@
 """`dvc repro` end to end on a temporary copy of the repository with a tiny parameter set: every stage runs,
-metrics and plots are readable, a second `dvc repro` does nothing, and a SIGKILL in the middle of the render
-stage followed by `dvc repro` ends with the same bytes as an uninterrupted render."""
+metrics and plots are readable, a second `dvc repro` does nothing, and a SIGKILL in the middle of each of the
+sample, blend, render and fit stages followed by `dvc repro` ends with the outputs of an uninterrupted run."""
 from __future__ import annotations
 
 import os
@@ -62,7 +62,7 @@ def test_repro_runs_every_stage_then_nothing(project):
         assert f"Running stage '{stage}'" in r.stdout, r.stdout[-2000:]
     for out in ("data/variants.zarr", "data/blends.zarr", "data/renders.zarr", "runs/train/checkpoint.pt",
                 "runs/eval/eval.json", "runs/eval/eval.md", "runs/train/loss.csv", "runs/eval_stress/eval.md",
-                "runs/charts/chart_render.png"):
+                "runs/charts/chart_render.png", "runs/charts/chart_stress.png", "runs/eval_stress/eval.png"):
         assert (project / out).exists(), out
     metrics = sh(["dvc", "metrics", "show", "--json"], project).stdout
     assert "rerender" in metrics and "eval.json" in metrics
@@ -71,27 +71,69 @@ def test_repro_runs_every_stage_then_nothing(project):
     assert "up to date" in sh(["dvc", "status"], project).stdout
 
 
-def test_sigkill_during_render_then_repro_gives_the_same_store(project):
+#: stage -> (params that make it (and what follows) run again, a file that shows it is under way, how many
+#: entries that folder must hold before the kill; None: the file's existence).
+KILLS = {
+    "sample": ({"sample": {"seed": 1, "chunk": 1}}, "data/variants.zarr.partial/.done", 3),
+    "blend": ({"blend": {"seed": 1, "chunk": 1}}, "data/blends.zarr.partial/.done", 2),
+    "render": ({"render": {"seed": 1, "chunk": 1}}, "data/renders.zarr.partial/.done", 3),
+    "fit": ({"train": {"optim": {"seed": 1, "iterations": 400, "checkpoint_every": 2}}}, "runs/train/checkpoint.pt",
+            None),
+}
+SVGEN = [sys.executable, "-c", "from pipeline.cli import main; main()"]
+SVTRAIN = [sys.executable, "-c", "from train.cli import main; main()"]
+
+
+def _merge(d: dict, upd: dict) -> None:
+    for k, v in upd.items():
+        if isinstance(v, dict):
+            _merge(d.setdefault(k, {}), v)
+        else:
+            d[k] = v
+
+
+@pytest.mark.parametrize("stage", list(KILLS))
+def test_sigkill_during_a_stage_then_repro_gives_the_same_outputs(project, stage):
+    """SIGKILL the whole `dvc repro` session while ``stage`` is half done, `dvc repro` again: the stage's output
+    equals a clean run of the same command (written here beside it, in this process's own worker setting)."""
     if not (project / "dvc.lock").exists():
         sh(["dvc", "repro"], project)
+    change, marker, entries = KILLS[stage]
     params = yaml.safe_load((project / "params.yaml").read_text())
-    params["render"]["seed"] = 1
-    params["render"]["chunk"] = 1
+    _merge(params, change)
     (project / "params.yaml").write_text(yaml.safe_dump(params))
-    done = project / "data" / "renders.zarr.partial" / ".done"
+    marker = project / marker
+    (project / "runs" / "train" / "checkpoint.pt").unlink(missing_ok=True)  # not mistaken for the new run's
+
+    def under_way() -> bool:
+        if entries is None:
+            return marker.exists()
+        return marker.is_dir() and len(list(marker.iterdir())) >= entries
+
     proc = subprocess.Popen(["dvc", "repro"], cwd=project, env=ENV, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 300
-    while time.time() < deadline and not (done.exists() and len(list(done.iterdir())) >= 3):
-        time.sleep(0.05)
+    while time.time() < deadline and not under_way() and proc.poll() is None:
+        time.sleep(0.02)
     os.killpg(proc.pid, signal.SIGKILL)  # dvc, svgen and its dask workers: the whole session
     proc.wait()
-    assert done.exists(), "the render stage never started"
-    assert not (project / "data" / "renders.zarr").exists()
+    assert under_way(), f"the {stage} stage never got under way"
+    final = {"sample": "data/variants.zarr", "blend": "data/blends.zarr", "render": "data/renders.zarr",
+             "fit": "runs/train/model.pt"}[stage]
+    assert not (project / final).exists(), f"{stage} had finished before the kill: the test proves nothing"
 
     sh(["dvc", "repro"], project)
-    ref = project / "ref.zarr"
-    sh([sys.executable, "-c", "from pipeline.cli import main; main()", "render", "data/variants.zarr",
-        "data/blends.zarr", str(ref), "--params", "params.yaml", "--workers", "0"], project)
-    assert tree_digest(project / "data" / "renders.zarr") == tree_digest(ref)
     assert "up to date" in sh(["dvc", "status"], project).stdout
+    ref = project / f"ref_{stage}"
+    if stage == "fit":
+        sh(SVTRAIN + ["fit", "--params", "params.yaml", "--store", "data/renders.zarr", "--out", str(ref),
+                      "--no-resume"], project)
+        import torch
+
+        a = torch.load(project / final, weights_only=False)["model"]
+        b = torch.load(ref / "model.pt", weights_only=False)["model"]
+        assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+        return
+    inputs = {"sample": [], "blend": ["data/variants.zarr"], "render": ["data/variants.zarr", "data/blends.zarr"]}
+    sh(SVGEN + [stage, *inputs[stage], str(ref), "--params", "params.yaml", "--workers", "0"], project)
+    assert tree_digest(project / final) == tree_digest(ref)

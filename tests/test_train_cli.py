@@ -43,6 +43,7 @@ def test_eval_writes_json_and_table(run_dir, tmp_path):
         assert set(res[m]) == {"rerender", "normal", "diffuse", "roughness", "specular"}
         assert all(np.isfinite(v) and v >= 0 for v in res[m].values())
     assert "| model |" in (tmp_path / "eval.md").read_text()
+    assert (tmp_path / "eval.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_predict_png_and_exr(run_dir, tmp_path):

@@ -64,3 +64,22 @@ def test_global_track_carries_image_statistics():
 def test_log_map_range():
     x = torch.tensor([0.0, 1.0, 2.0, -1.0])
     torch.testing.assert_close(log_map(x), torch.tensor([0.0, 1.0, 1.0, 0.0]))
+
+
+@pytest.mark.parametrize("zero_output", [True, False])
+def test_untrained_network_predicts_its_initial_material(zero_output):
+    """The output biases are a plausible material (flat normal, INIT_*); with zero_output the untrained network
+    predicts exactly that, up to the small global-bias term; with random output weights it varies per pixel."""
+    from train.net import INIT_DIFFUSE, INIT_ROUGHNESS, INIT_SPECULAR
+
+    torch.manual_seed(0)
+    net = SVBRDFNet(ModelConfig(base_width=4, max_width=16, levels=4, zero_output=zero_output)).eval()
+    with torch.no_grad():
+        y = net(torch.rand(2, 3, 32, 32))
+    init = torch.tensor([0.0, 0.0, 1.0, *[INIT_DIFFUSE] * 3, *[INIT_SPECULAR] * 3, INIT_ROUGHNESS])
+    err = (y - init[None, :, None, None]).abs().amax((0, 2, 3))
+    spread = y.std((2, 3)).amax()
+    if zero_output:
+        assert err.max() < 0.02 and spread < 1e-6, (err, spread)  # out_bias weights have std 0.01
+    else:
+        assert spread > 1e-3, spread

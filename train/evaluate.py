@@ -28,6 +28,7 @@ from pipeline.errors import ConfigError
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .config import Config
 from .data import PairDataset, open_source, split_by_source
+from .eval_chart import groups_of, plot_eval
 from .render import flash_render
 
 #: flash offsets of the re-rendering metric: the capture position and four moved lights.
@@ -168,7 +169,7 @@ def markdown(res: dict) -> str:
 
 def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "heldout",
              store: str | None = None, limit: int | None = None) -> dict:
-    """Evaluate a checkpoint on a suite; writes eval.json and eval.md into ``out_dir``.
+    """Evaluate a checkpoint on a suite; writes eval.json, eval.md and eval.png (bars) into ``out_dir``.
 
     Returns:
         for one-group suites: {"model"|baseline: {column: RMSE}, "samples", "suite", "beats_baselines"};
@@ -197,4 +198,5 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     out.mkdir(parents=True, exist_ok=True)
     (out / "eval.json").write_text(json.dumps(res, indent=2) + "\n")
     (out / "eval.md").write_text(markdown(res))
+    plot_eval(groups_of(res), out / "eval.png", f"svtrain eval --suite {suite}: {checkpoint_path}")
     return res

@@ -107,6 +107,8 @@ class SVBRDFNet(nn.Module):
             self.out_conv.bias[2:5] = _logit(INIT_DIFFUSE)
             self.out_conv.bias[5] = _logit((INIT_ROUGHNESS - MIN_ROUGHNESS) / (1.0 - MIN_ROUGHNESS))
             self.out_conv.bias[6:9] = _logit(INIT_SPECULAR)
+            if cfg.zero_output:
+                self.out_conv.weight.zero_()
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         """Args: image (B, 3, H, W) linear in [0, 1]. Returns (B, 10, H, W) packed maps."""
