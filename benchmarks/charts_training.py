@@ -47,7 +47,8 @@ def plot(json_path, png_path) -> Path:
     ax.set_ylabel("held-out re-render RMSE")
     split = res.get("split", {})
     ax.set_title(f"Eval re-render RMSE vs training time ({split.get('eval_views', '?')} held-out views, "
-                 f"lr {res.get('lr', '?'):g})", fontsize=10)
+                 f"lr {res.get('lr', '?'):g} {res.get('schedule', 'constant')}, grad clip {res.get('grad_clip', 0):g})",
+                 fontsize=10)
     ax.grid(alpha=0.3)
     ax.set_xlim(left=0)
     ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)

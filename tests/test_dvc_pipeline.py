@@ -75,7 +75,7 @@ def test_repro_runs_every_stage_then_nothing(project):
 #: entries that folder must hold before the kill; None: the file's existence).
 KILLS = {
     "sample": ({"sample": {"seed": 1, "chunk": 1}}, "data/variants.zarr.partial/.done", 3),
-    "blend": ({"blend": {"seed": 1, "chunk": 1}}, "data/blends.zarr.partial/.done", 2),
+    "blend": ({"blend": {"seed": 1, "chunk": 1, "count": 40}}, "data/blends.zarr.partial/.done", 2),
     "render": ({"render": {"seed": 1, "chunk": 1}}, "data/renders.zarr.partial/.done", 3),
     "fit": ({"train": {"optim": {"seed": 1, "iterations": 400, "checkpoint_every": 2}}}, "runs/train/checkpoint.pt",
             None),
