@@ -103,7 +103,8 @@ def test_sigkill_during_a_stage_then_repro_gives_the_same_outputs(project, stage
     _merge(params, change)
     (project / "params.yaml").write_text(yaml.safe_dump(params))
     marker = project / marker
-    (project / "runs" / "train" / "checkpoint.pt").unlink(missing_ok=True)  # not mistaken for the new run's
+    for name in ("checkpoint.pt", "model.pt"):  # not mistaken for the new run's
+        (project / "runs" / "train" / name).unlink(missing_ok=True)
 
     def under_way() -> bool:
         if entries is None:

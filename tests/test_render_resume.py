@@ -76,9 +76,12 @@ def test_a_second_run_on_the_same_output_is_refused(variants, tmp_path):
                              stderr=subprocess.DEVNULL, env=env)
     try:
         _wait_for_chunks(out, 1)
+        # Freeze the first run mid-store: it holds the store, alive, for as long as the second takes to start
+        # (without this the first could finish first on a fast machine and the refusal would go untested).
+        os.kill(first.pid, signal.SIGSTOP)
+        assert first.poll() is None and not out.exists(), "the first run finished before it could be frozen"
         second = subprocess.run(_svgen(variants, out, "--workers", "0"), capture_output=True, text=True, env=env)
-        if first.poll() is None:  # still writing: the second run must have been refused
-            assert second.returncode != 0 and "another run is writing" in second.stderr, second.stderr
+        assert second.returncode != 0 and "another run is writing" in second.stderr, second.stderr
     finally:
         first.kill()
         first.wait()
