@@ -95,3 +95,19 @@ def test_grad_clip_bounds_the_gradient(src):
     assert norms[0.0][0] == pytest.approx(norms[0.0][1], rel=1e-5) and norms[0.0][1] > 1e-2
     assert norms[1e-3][0] == pytest.approx(norms[0.0][0], rel=1e-5)  # same init, same batch: same raw gradient
     assert norms[1e-3][1] == pytest.approx(1e-3, rel=1e-3)
+
+
+def test_map_l1_adds_the_map_term(src):
+    """optim.map_l1 = w adds w x mean |pred - maps| to the rendering loss (same init, batch, configs, dropout)."""
+    img = torch.stack([torch.from_numpy(src.image(i)[:32, :32]).permute(2, 0, 1) for i in range(2)])
+    maps = torch.stack([torch.from_numpy(src.packed(i)[:32, :32]).permute(2, 0, 1) for i in range(2)])
+    losses = {}
+    for w in (0.0, 0.5):
+        cfg = resolve("compact", None, {**TINY, "optim.map_l1": w})
+        model, opt, gen = build(cfg)
+        losses[w], _ = train_step(model, opt, make_loss(False), img, maps, gen, cfg.optim, 0)
+    model, _, _ = build(cfg)  # the same weights and dropout stream as the steps above
+    with torch.no_grad():
+        expected = 0.5 * float((model.train()(img) - maps).abs().mean())
+    assert expected > 1e-3
+    assert losses[0.5] - losses[0.0] == pytest.approx(expected, rel=1e-4)

@@ -93,6 +93,9 @@ class OptimConfig:
     """steps between rows of the loss log."""
     threads: int = 0
     """torch intra-op threads (0 = torch's default)."""
+    map_l1: float = 0.0
+    """weight of an L1 term on the packed maps added to the rendering loss (0 = the 2018 paper's loss alone; the
+    2019 follow-up, Deschaintre et al. "Flexible SVBRDF capture", mixes both)."""
     grad_clip: float = 0.0
     """largest global gradient norm per step, 0 = no clipping (the paper clips nothing)."""
     schedule: str = "constant"
@@ -138,6 +141,7 @@ class Config:
             (o.checkpoint_every >= 1 and o.log_every >= 1, "optim.checkpoint_every/log_every >= 1"),
             (o.seed >= 0, "optim.seed must be >= 0"),
             (o.grad_clip >= 0, "optim.grad_clip must be >= 0 (0 = off)"),
+            (o.map_l1 >= 0, "optim.map_l1 must be >= 0 (0 = rendering loss only)"),
             (o.schedule in SCHEDULES, f"optim.schedule must be one of {', '.join(SCHEDULES)}"),
             (0.0 <= o.lr_final <= 1.0, "optim.lr_final must be in [0, 1]"),
         ]

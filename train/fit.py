@@ -69,7 +69,10 @@ def train_step(model: SVBRDFNet, opt: torch.optim.Optimizer, loss_fn, image: tor
     """
     for group in opt.param_groups:
         group["lr"] = lr_at(o, step)
-    loss = loss_fn(model(image), maps, gen)
+    pred = model(image)
+    loss = loss_fn(pred, maps, gen)
+    if o.map_l1 > 0:
+        loss = loss + o.map_l1 * (pred - maps).abs().mean()
     opt.zero_grad(set_to_none=True)
     loss.backward()
     # clip_grad_norm_ with max_norm=inf only measures the norm (same code path, no rescale)
