@@ -18,8 +18,9 @@ Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/res
 ``--table-width`` model, by default the compact one, after its budget, model vs baselines) and ``docs/img/chart_training.png``
 (``benchmarks/charts_training.py``).
 
-    python3 benchmarks/bench_train_budget.py --store data/renders.zarr            # 3 x 10 min + evals
-    python3 benchmarks/bench_train_budget.py --widths 16 --budget-s 300 --lr 1e-3 --out /tmp/probe   # a probe
+    python3 benchmarks/bench_train_budget.py --table-width 8          # widths 8/16/32 x 10 min (train_budget.json)
+    python3 benchmarks/bench_train_budget.py --widths 8 --budget-s 1800 --out benchmarks/results/budget_30min --png ''
+    python3 benchmarks/bench_train_budget.py --widths 8 --steps 2707 --set optim.map_l1=0.1 --out /tmp/p --png ''  # A/B
 """
 from __future__ import annotations
 
@@ -171,7 +172,7 @@ def eval_model(model, batches) -> dict:
     return {c: float(np.mean(v)) for c, v in acc.items()}
 
 
-def calibrate_steps(a, cfg, ds, budget_s: float, probe_steps: int = 60, skip: int = 20) -> tuple[int, float]:
+def calibrate_steps(cfg, ds, budget_s: float, probe_steps: int = 60, skip: int = 20) -> tuple[int, float]:
     """Steps that fill ``budget_s`` of training wall time: it/s of ``probe_steps`` steps (the first ``skip``
     untimed: loader workers starting, first batches and the loss compile are slower) of a throwaway model of the
     same width on the same loader. A learning-rate schedule needs the step
@@ -195,7 +196,7 @@ def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, me
     ds = PairDataset(src, train_idx, cfg.data.crop, cfg.optim.seed, train=True, flips=cfg.data.augment)
     # one-off setup outside the clock: the loss compile (inside the first probe step) and the step count
     t0 = time.perf_counter()
-    iterations, probe_rate = (a.steps, None) if a.steps else calibrate_steps(a, cfg, ds, a.budget_s)
+    iterations, probe_rate = (a.steps, None) if a.steps else calibrate_steps(cfg, ds, a.budget_s)
     setup_s = time.perf_counter() - t0
     cfg.optim.iterations = iterations
     o = cfg.optim
@@ -285,7 +286,7 @@ def main(argv=None) -> None:
     ap.add_argument("--budget-s", type=float, default=600.0, help="training wall seconds per width")
     ap.add_argument("--steps", type=int, default=0,
                     help="train this many steps instead of the budget's calibrated count (exact A/B comparisons)")
-    ap.add_argument("--lr", type=float, default=2e-4)
+    ap.add_argument("--lr", type=float, default=preset("compact").optim.lr)
     ap.add_argument("--grad-clip", type=float, default=preset("compact").optim.grad_clip,
                     help="optim.grad_clip (0 = off)")
     ap.add_argument("--schedule", choices=("constant", "cosine"), default=preset("compact").optim.schedule)
@@ -339,10 +340,10 @@ def main(argv=None) -> None:
         ref = by_w[default]["evaluate"]
         m = ref["model"]
         eval_budget = {"model": {c: m[c] for c in COLUMNS}, **{b: ref[b] for b in BASELINES}, "samples": int(len(eval_idx)),
-                       "base_width": default, "steps": by_w[default]["steps"], "wall_s": a.budget_s,
+                       "base_width": default, "steps": by_w[default]["steps"],
+                       "wall_s": by_w[default]["points"][-1]["wall_s"],
                        "beats_baselines": {c: all(m[c] < ref[b][c] for b in BASELINES) for c in COLUMNS}}
-        wall = by_w[default]["points"][-1]["wall_s"]
-        eval_budget["wall_s"] = wall
+        wall = eval_budget["wall_s"]
         md = markdown({**eval_budget, "suite": f"heldout (width {default}, {wall:.0f} s)"})
         (out / "eval_budget.md").write_text(
             f"# Base width {default} after {wall:.0f} s of training on 2 cores "

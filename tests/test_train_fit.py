@@ -20,12 +20,18 @@ def src():
     return SyntheticSource(16, 40, 4, seed=2)
 
 
+def fixed_batch(src, n: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """The top-left 32² of the first ``n`` samples: (n, 3, 32, 32) images and (n, 10, 32, 32) maps."""
+    img = torch.stack([torch.from_numpy(src.image(i)[:32, :32]).permute(2, 0, 1) for i in range(n)])
+    maps = torch.stack([torch.from_numpy(src.packed(i)[:32, :32]).permute(2, 0, 1) for i in range(n)])
+    return img, maps
+
+
 def test_tiny_fit_lowers_loss_on_fixed_batch(src):
     cfg = resolve("compact", None, {**TINY, "optim.lr": 2e-3, "model.dropout": 0.0})
     model, opt, gen = build(cfg)
     loss_fn = make_loss(False)
-    img = torch.stack([torch.from_numpy(src.image(i)[:32, :32]).permute(2, 0, 1) for i in range(4)])
-    maps = torch.stack([torch.from_numpy(src.packed(i)[:32, :32]).permute(2, 0, 1) for i in range(4)])
+    img, maps = fixed_batch(src, 4)
     eval_gen = lambda: torch.Generator().manual_seed(123)  # noqa: E731  same configs before/after
     with torch.no_grad():
         before = loss_fn(model(img), maps, eval_gen()).item()
@@ -83,8 +89,7 @@ def test_lr_schedule():
 
 def test_grad_clip_bounds_the_gradient(src):
     """After a clipped step the gradient's global norm is the clip value; unclipped it is larger (can fail)."""
-    img = torch.stack([torch.from_numpy(src.image(i)[:32, :32]).permute(2, 0, 1) for i in range(2)])
-    maps = torch.stack([torch.from_numpy(src.packed(i)[:32, :32]).permute(2, 0, 1) for i in range(2)])
+    img, maps = fixed_batch(src, 2)
     norms = {}
     for clip in (0.0, 1e-3):
         cfg = resolve("compact", None, {**TINY, "optim.grad_clip": clip})
@@ -99,8 +104,7 @@ def test_grad_clip_bounds_the_gradient(src):
 
 def test_map_l1_adds_the_map_term(src):
     """optim.map_l1 = w adds w x mean |pred - maps| to the rendering loss (same init, batch, configs, dropout)."""
-    img = torch.stack([torch.from_numpy(src.image(i)[:32, :32]).permute(2, 0, 1) for i in range(2)])
-    maps = torch.stack([torch.from_numpy(src.packed(i)[:32, :32]).permute(2, 0, 1) for i in range(2)])
+    img, maps = fixed_batch(src, 2)
     losses = {}
     for w in (0.0, 0.5):
         cfg = resolve("compact", None, {**TINY, "optim.map_l1": w})
