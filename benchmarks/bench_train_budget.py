@@ -70,6 +70,7 @@ class CachedSource:
             self.images[int(i)] = np.ascontiguousarray(img[y0:y0 + crop, x0:x0 + crop])
             self.maps[int(i)] = np.ascontiguousarray(mp[y0:y0 + crop, x0:x0 + crop])
         self.n = len(src)
+        self.views = getattr(src, "views", None)  # views per SVBRDF: evaluate's cluster bootstrap groups by SVBRDF
 
     def __len__(self) -> int:
         return self.n
@@ -342,14 +343,19 @@ def main(argv=None) -> None:
         eval_budget = {"model": {c: m[c] for c in COLUMNS}, **{b: ref[b] for b in BASELINES}, "samples": int(len(eval_idx)),
                        "base_width": default, "steps": by_w[default]["steps"],
                        "wall_s": by_w[default]["points"][-1]["wall_s"],
-                       "beats_baselines": {c: all(m[c] < ref[b][c] for b in BASELINES) for c in COLUMNS}}
+                       "beats_baselines": {c: all(m[c] < ref[b][c] for b in BASELINES) for c in COLUMNS},
+                       "paired": ref["paired"],
+                       "beats_beyond_noise": {c: all(ref["paired"][b][c]["ci95"][0] > 0 for b in BASELINES)
+                                              for c in COLUMNS}}
         wall = eval_budget["wall_s"]
         md = markdown({**eval_budget, "suite": f"heldout (width {default}, {wall:.0f} s)"})
         (out / "eval_budget.md").write_text(
             f"# Base width {default} after {wall:.0f} s of training on 2 cores "
             f"({by_w[default]['steps']} steps, lr {a.lr:g} {a.schedule}, grad clip {a.grad_clip:g})\n\n{md}\n"
             f"beats every baseline on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if v) or 'none'}"
-            f"; not on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if not v) or 'none'}\n")
+            f"; not on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if not v) or 'none'}\n"
+            f"with the 95 % interval of the gain above 0 against both baselines on: "
+            f"{', '.join(c for c, v in eval_budget['beats_beyond_noise'].items() if v) or 'none'}\n")
     res = {"benchmark": "bench_train_budget", "command": "python3 benchmarks/bench_train_budget.py "
            + " ".join(argv if argv is not None else sys.argv[1:]),
            "store": a.store, "overrides": a.set, "budget_wall_s": a.budget_s, "lr": a.lr, "schedule": a.schedule,
@@ -358,7 +364,7 @@ def main(argv=None) -> None:
            "loader_workers": a.workers, "compile_loss": a.compile == "on", "compile_probe": probe, "seed": a.seed,
            "split": {"train_views": int(len(train_idx)), "heldout_views": int(len(test_idx)),
                      "eval_views": int(len(eval_idx)), "by": "preset (data.holdout of the compact preset)"},
-           "baselines": baselines, "widths": rows, "compact_default": default, "eval_budget": eval_budget,
+           "optim": cfg0.to_dict()["optim"], "baselines": baselines, "widths": rows, "compact_default": default, "eval_budget": eval_budget,
            "tolerance": a.tol, "chosen_base_width": chosen,
            "rule": "smallest width whose eval error at the end of the budget is within tolerance of the next "
                    "larger width's (rerender RMSE; mean of the five columns alongside)",

@@ -81,6 +81,7 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
     ("unknown stress category", S, ["stress", "{d}/o.zarr", "--category", "haunted"], "unknown stress category"),
     ("fit: unknown config key", T, ["fit", "--out", "{d}/o.zarr", "--set", "model.colour=red"], "unknown"),
     ("fit: impossible depth", T, ["fit", "--out", "{d}/o.zarr", "--set", "model.levels=99"], "levels"),
+    ("fit: negative normal term", T, ["fit", "--out", "{d}/o.zarr", "--set", "optim.normal_l2=-1"], "normal_l2"),
     ("fit: missing store", T, ["fit", "--out", "{d}/o.zarr", "--store", "{d}/nothing.zarr"], "does not exist"),
     ("eval: missing checkpoint", T, ["eval", "--checkpoint", "{d}/nothing", "--out", "{d}/o.zarr"], "checkpoint"),
     ("eval: stress without store", T, ["eval", "--checkpoint", "{d}/run", "--suite", "stress",

@@ -49,3 +49,4 @@ def test_paper_recipe_resolves_to_the_paper_scale(tmp_path):
     assert (train.preset, train.model.base_width, train.model.levels) == ("paper", 64, 8)
     assert (train.optim.lr, train.optim.iterations, train.data.crop) == (2e-5, 400_000, 256)
     assert train.optim.schedule == "constant" and train.optim.grad_clip == 0  # the paper's optimiser, unchanged
+    assert train.optim.normal_l2 == 0 and train.optim.map_l1 == 0  # and the paper's loss: renderings only

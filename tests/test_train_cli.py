@@ -42,7 +42,12 @@ def test_eval_writes_json_and_table(run_dir, tmp_path):
     for m in ("model", "input_as_diffuse", "dataset_mean"):
         assert set(res[m]) == {"rerender", "normal", "diffuse", "roughness", "specular"}
         assert all(np.isfinite(v) and v >= 0 for v in res[m].values())
+    for b in ("input_as_diffuse", "dataset_mean"):  # the paired statistics against each baseline, per column
+        for c, p in res["paired"][b].items():
+            assert p["ci95"][0] <= p["gain"] <= p["ci95"][1], (b, c, p)
+            assert p["gain"] == pytest.approx(res[b][c] - res["model"][c], abs=1e-9)
     assert "| model |" in (tmp_path / "eval.md").read_text()
+    assert "95 % interval" in (tmp_path / "eval.md").read_text()
     assert (tmp_path / "eval.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

@@ -115,3 +115,22 @@ def test_map_l1_adds_the_map_term(src):
         expected = 0.5 * float((model.train()(img) - maps).abs().mean())
     assert expected > 1e-3
     assert losses[0.5] - losses[0.0] == pytest.approx(expected, rel=1e-4)
+
+
+def test_normal_l2_adds_a_squared_term_on_the_normals_only(src):
+    """optim.normal_l2 = w adds w x mean (pred_xy - maps_xy)² to the rendering loss; the other maps get no gradient
+    from it (the output layer's rows for diffuse, specular and roughness see the same gradient with and without)."""
+    img, maps = fixed_batch(src, 2)
+    losses, grads = {}, {}
+    for w in (0.0, 3.0):
+        cfg = resolve("compact", None, {**TINY, "optim.normal_l2": w, "model.zero_output": False})
+        model, opt, gen = build(cfg)
+        losses[w], _ = train_step(model, opt, make_loss(False), img, maps, gen, cfg.optim, 0)
+        grads[w] = model.out_conv.weight.grad.clone()
+    model, _, _ = build(cfg)
+    with torch.no_grad():
+        expected = 3.0 * float(((model.train()(img)[:, 0:2] - maps[:, 0:2]) ** 2).mean())
+    assert expected > 1e-4
+    assert losses[3.0] - losses[0.0] == pytest.approx(expected, rel=1e-4)
+    assert torch.allclose(grads[3.0][2:], grads[0.0][2:], rtol=1e-4, atol=1e-7)
+    assert not torch.allclose(grads[3.0][0:2], grads[0.0][0:2], rtol=1e-2, atol=1e-6)

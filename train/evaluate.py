@@ -90,6 +90,40 @@ def metrics(pred: torch.Tensor, gt: torch.Tensor) -> dict[str, np.ndarray]:
     return out
 
 
+def cluster_ids(src, indices) -> np.ndarray:
+    """(N,) the SVBRDF each evaluated view shows (views of one SVBRDF share their maps, so they are not independent
+    samples); a source without that notion gives every view its own id."""
+    per = getattr(src, "views", None)
+    indices = np.asarray(indices, np.int64)
+    return indices // per if isinstance(per, int) and per > 0 else indices
+
+
+def paired(model_err: np.ndarray, base_err: np.ndarray, clusters: np.ndarray, seed: int,
+           resamples: int = 2000) -> dict:
+    """Is the model better than a baseline on one column, beyond the spread of the evaluated set?
+
+    The gain is the mean over views of (baseline RMSE - model RMSE). Its 95 % interval comes from a cluster
+    bootstrap: whole SVBRDFs (all their views together) are resampled, because views of one SVBRDF are correlated.
+
+    Args:
+        model_err, base_err: (N,) per-view RMSEs. clusters: (N,) SVBRDF id of each view.
+
+    Returns:
+        {"gain": mean gain, "ci95": [low, high], "views_better": share of views where the model is better,
+        "clusters": number of SVBRDFs}.
+    """
+    diff = np.asarray(base_err, np.float64) - np.asarray(model_err, np.float64)
+    ids, inv = np.unique(clusters, return_inverse=True)
+    sums = np.bincount(inv, weights=diff, minlength=len(ids))
+    counts = np.bincount(inv, minlength=len(ids)).astype(np.float64)
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, len(ids), size=(resamples, len(ids)))
+    boot = sums[pick].sum(1) / counts[pick].sum(1)
+    lo, hi = np.quantile(boot, [0.025, 0.975])
+    return {"gain": float(diff.mean()), "ci95": [float(lo), float(hi)], "views_better": float((diff > 0).mean()),
+            "clusters": int(len(ids))}
+
+
 def train_means(src, indices, crop: int, seed: int, limit: int = 64) -> torch.Tensor:
     """(10,) per-channel mean of the packed maps over (up to ``limit``) training samples.
 
@@ -129,7 +163,8 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
     """Mean RMSEs of the model and both baselines over ``indices`` (centre crops, no augmentation).
 
     Returns:
-        {"model"|"input_as_diffuse"|"dataset_mean": {column: mean RMSE}, "samples": n}.
+        {"model"|"input_as_diffuse"|"dataset_mean": {column: mean RMSE}, "samples": n,
+        "paired": {baseline: {column: :func:`paired` statistics of model against that baseline}}}.
     """
     ds = PairDataset(src, indices, crop, seed, train=False)
     methods = {"model": lambda img: model(img), "input_as_diffuse": lambda img: input_as_diffuse(img, means),
@@ -149,6 +184,10 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
                 acc[name][c].extend(v.tolist())
     res = {m: {c: float(np.mean(v)) for c, v in cols.items()} for m, cols in acc.items()}
     res["samples"] = len(ds)
+    if "model" in acc:
+        cl = cluster_ids(src, indices)
+        res["paired"] = {b: {c: paired(acc["model"][c], acc[b][c], cl, seed) for c in COLUMNS}
+                         for b in acc if b != "model"}
     return res
 
 
@@ -164,6 +203,20 @@ def markdown(res: dict) -> str:
     lines.append("")
     lines.append(f"RMSE over {n} samples; normal in (n+1)/2 encoding, other maps linear; "
                  f"re-rendering: flash renders under {len(EVAL_LIGHTS)} light positions.")
+    for g, r in groups.items():
+        if "paired" not in r:
+            continue
+        lines.append("")
+        lines.append(f"Model against the stronger baseline of each column{f' ({g})' if g else ''}: mean RMSE gain, "
+                     f"95 % cluster-bootstrap interval over SVBRDFs, share of views where the model is better.")
+        lines.append("")
+        lines.append("| column | baseline | gain | 95 % interval | views better |")
+        lines.append("|---|---|---|---|---|")
+        for c in COLUMNS:
+            b = min(r["paired"], key=lambda k: r[k][c])
+            p = r["paired"][b][c]
+            lines.append(f"| {c} | {b} | {p['gain']:+.4f} | [{p['ci95'][0]:+.4f}, {p['ci95'][1]:+.4f}] | "
+                         f"{100 * p['views_better']:.0f} % |")
     return "\n".join(lines) + "\n"
 
 

@@ -73,6 +73,8 @@ def train_step(model: SVBRDFNet, opt: torch.optim.Optimizer, loss_fn, image: tor
     loss = loss_fn(pred, maps, gen)
     if o.map_l1 > 0:
         loss = loss + o.map_l1 * (pred - maps).abs().mean()
+    if o.normal_l2 > 0:
+        loss = loss + o.normal_l2 * ((pred[:, 0:2] - maps[:, 0:2]) ** 2).mean()
     opt.zero_grad(set_to_none=True)
     loss.backward()
     # clip_grad_norm_ with max_norm=inf only measures the norm (same code path, no rescale)
