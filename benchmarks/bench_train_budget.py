@@ -61,6 +61,7 @@ class CachedSource:
 
     def __init__(self, src, indices, crop: int):
         self.images, self.maps = {}, {}
+        self.views = getattr(src, "views", None)  # views per SVBRDF: evaluate's cluster bootstrap groups by SVBRDF
         if src is None:
             return
         for i in indices:
@@ -70,7 +71,6 @@ class CachedSource:
             self.images[int(i)] = np.ascontiguousarray(img[y0:y0 + crop, x0:x0 + crop])
             self.maps[int(i)] = np.ascontiguousarray(mp[y0:y0 + crop, x0:x0 + crop])
         self.n = len(src)
-        self.views = getattr(src, "views", None)  # views per SVBRDF: evaluate's cluster bootstrap groups by SVBRDF
 
     def __len__(self) -> int:
         return self.n
@@ -87,7 +87,7 @@ def _prepare(data_cfg, eval_idx, train_idx, crop: int, seed: int) -> tuple:
     torch.set_num_threads(1)
     src = open_source(data_cfg)
     cache = CachedSource(src, eval_idx, crop)
-    return cache.images, cache.maps, len(src), train_means(src, train_idx, crop, seed).numpy()
+    return cache.images, cache.maps, len(src), cache.views, train_means(src, train_idx, crop, seed).numpy()
 
 
 def prepare_eval(data_cfg, eval_idx, train_idx, crop: int, seed: int) -> tuple["CachedSource", torch.Tensor]:
@@ -102,9 +102,9 @@ def prepare_eval(data_cfg, eval_idx, train_idx, crop: int, seed: int) -> tuple["
     from concurrent.futures import ProcessPoolExecutor
 
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as ex:
-        images, maps, n, means = ex.submit(_prepare, data_cfg, eval_idx, train_idx, crop, seed).result()
+        images, maps, n, views, means = ex.submit(_prepare, data_cfg, eval_idx, train_idx, crop, seed).result()
     cache = CachedSource(None, [], crop)
-    cache.images, cache.maps, cache.n = images, maps, n
+    cache.images, cache.maps, cache.n, cache.views = images, maps, n, views
     return cache, torch.from_numpy(means)
 
 

@@ -36,7 +36,7 @@ from train.data import PairDataset, make_loader, open_source, split_by_source  #
 from train.fit import build, lr_at, train_step  # noqa: E402
 from train.loss import make_loss  # noqa: E402
 
-OBJECTIVES = ("normal_l1", "normal_l2", "render", "render+normal_l2=10", "render+normal_l2=100")
+OBJECTIVES = ("normal_l1", "normal_l2", "render", "render+normal_l2=100")
 
 
 def run(objective: str, store: str, steps: int, every: int) -> dict:

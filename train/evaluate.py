@@ -207,8 +207,9 @@ def markdown(res: dict) -> str:
         if "paired" not in r:
             continue
         lines.append("")
+        n_cl = next(iter(next(iter(r["paired"].values())).values()))["clusters"]
         lines.append(f"Model against the stronger baseline of each column{f' ({g})' if g else ''}: mean RMSE gain, "
-                     f"95 % cluster-bootstrap interval over SVBRDFs, share of views where the model is better.")
+                     f"95 % bootstrap interval over {n_cl} SVBRDFs, share of views where the model is better.")
         lines.append("")
         lines.append("| column | baseline | gain | 95 % interval | views better |")
         lines.append("|---|---|---|---|---|")
