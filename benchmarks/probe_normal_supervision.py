@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +42,7 @@ OBJECTIVES = ("normal_l1", "normal_l2", "render", "render+normal_l2=100")
 
 
 def run(objective: str, store: str, steps: int, every: int) -> dict:
+    torch.set_num_threads(2)
     weight = float(objective.split("=", 1)[1]) if objective.startswith("render+normal_l2=") else 0.0
     cfg = resolve("compact", None, {"data.store": store, "optim.iterations": steps, "optim.normal_l2": weight})
     src = open_source(cfg.data)
@@ -83,10 +86,12 @@ def main(argv=None) -> None:
     bad = [x for x in a.objectives if x not in OBJECTIVES and not x.startswith("render+normal_l2=")]
     if bad:
         ap.error(f"unknown objective(s) {', '.join(bad)}; known: {', '.join(OBJECTIVES)}")
-    torch.set_num_threads(2)
     rows = []
     for obj in a.objectives:
-        rows.append(run(obj, a.store, a.steps, a.every))
+        # one spawned process per objective: a process that has run drjit (the previous objective's evaluation reads
+        # maps through it) must not fork loader workers (they hang; see bench_train_budget.prepare_eval)
+        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
+            rows.append(ex.submit(run, obj, a.store, a.steps, a.every).result())
         print(json.dumps(rows[-1]), flush=True)
     res = {"command": "python3 benchmarks/probe_normal_supervision.py " + " ".join(argv if argv is not None
                                                                                   else sys.argv[1:]),
