@@ -112,7 +112,7 @@ def _plot(path: Path, rows: list[tuple[int, float]]) -> None:
     if rows:
         ax.plot([r[0] for r in rows], [r[1] for r in rows])
     ax.set_xlabel("step")
-    ax.set_ylabel("rendering loss (log-L1)")
+    ax.set_ylabel("loss (rendering log-L1 + map terms)")
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path)
