@@ -23,6 +23,7 @@ import fcntl
 import hashlib
 import json
 import os
+import re
 import shutil
 import warnings
 from dataclasses import dataclass
@@ -36,6 +37,8 @@ from .errors import StoreError
 
 SCHEMA_VERSION = 1
 PARTIAL_SUFFIX = ".partial"
+#: the temporary name of a chunk zarr's LocalStore is writing (zarr/storage/_local.py: ``.{uuid4 hex}.partial``).
+ZARR_TMP = re.compile(r"\.[0-9a-f]{32}\.partial$")
 LOCK_SUFFIX = ".lock"
 DONE_DIR = ".done"
 
@@ -209,6 +212,12 @@ class StoreWriter:
         meta["svgen"] = {**meta["svgen"], "complete": True}
         g.attrs.put(meta)
         shutil.rmtree(self.partial / DONE_DIR)
+        # zarr's LocalStore writes each chunk to "<key>.<uuid hex>.partial" and renames it: a kill mid-write leaves
+        # that file behind, and the resumed run rewrites the chunk under its real key. Drop the orphans so the
+        # finished store holds exactly what a clean run writes (tests/test_dvc_pipeline.py, SIGKILL during render).
+        for orphan in self.partial.rglob("*.partial"):
+            if orphan.is_file() and ZARR_TMP.search(orphan.name):
+                orphan.unlink()
         zarr.consolidate_metadata(self.partial)
         os.replace(self.partial, self.final)  # still under the lock: nobody else can have made final
         os.remove(self.lockfile)

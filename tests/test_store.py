@@ -92,3 +92,24 @@ def test_corrupted_chunk_is_detected_and_named(tmp_path):
     assert read_region(g, "x", 0, 4)[0, 0, 0, 0] == 1  # the intact chunk still reads
     with pytest.raises(StoreError, match=r"chunk 1"):
         read_region(g, "x", 4, 8)
+
+
+def test_orphaned_zarr_chunk_temp_files_are_dropped_at_finalize(tmp_path):
+    """A kill while zarr writes a chunk leaves its "<key>.<uuid hex>.partial" temp file; the resumed run rewrites the
+    chunk, and the finished store must not keep the orphan (it did: a SIGKILL-during-render test saw one)."""
+    out = tmp_path / "s.zarr"
+    with StoreWriter(out, "variants", 8, 4, ARRAYS, {}) as w:
+        _fill(w, [0])
+        chunk_dir = w.partial / "x" / "c" / "1" / "0" / "0"  # chunk key x/c/1/0/0/0 is a file in there
+        chunk_dir.mkdir(parents=True, exist_ok=True)
+        orphan = chunk_dir / "0.0e0215fc14b04c1b97c11bb31a2f9130.partial"
+        orphan.write_bytes(b"half a chunk")
+        keep = w.partial / "notes.partial"  # not zarr's temp pattern: not ours to delete
+        keep.write_text("x")
+    with StoreWriter(out, "variants", 8, 4, ARRAYS, {}) as w:
+        _fill(w)
+        w.finalize()
+    files = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
+    assert not any(f.endswith("0e0215fc14b04c1b97c11bb31a2f9130.partial") for f in files), files
+    assert "notes.partial" in files
+    assert open_store(out, "variants")["x"][:, 0, 0, 0].tolist() == [1] * 4 + [2] * 4
