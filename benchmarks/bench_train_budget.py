@@ -364,7 +364,8 @@ def main(argv=None) -> None:
            "loader_workers": a.workers, "compile_loss": a.compile == "on", "compile_probe": probe, "seed": a.seed,
            "split": {"train_views": int(len(train_idx)), "heldout_views": int(len(test_idx)),
                      "eval_views": int(len(eval_idx)), "by": "preset (data.holdout of the compact preset)"},
-           "optim": cfg0.to_dict()["optim"], "baselines": baselines, "widths": rows, "compact_default": default, "eval_budget": eval_budget,
+           "optim": cfg0.to_dict()["optim"], "baselines": baselines, "widths": rows, "compact_default": default,
+           "eval_budget": eval_budget,
            "tolerance": a.tol, "chosen_base_width": chosen,
            "rule": "smallest width whose eval error at the end of the budget is within tolerance of the next "
                    "larger width's (rerender RMSE; mean of the five columns alongside)",

@@ -175,7 +175,8 @@ def _compact() -> Config:
     # specular a little better, roughness worse (0.203 against 0.186; results/probe_zero_output.json).
     # normal_l2 100: the rendering loss alone leaves the normals flat (held-out normal RMSE 0.0791 against the flat
     # normal's 0.0792); the same 2707 steps with the squared normal term at 10 / 30 / 100 give 0.0790 / 0.0765 /
-    # 0.0734, for a re-render RMSE of 0.0393 / 0.0422 / 0.0447 (0.0384 without; results/probe_normal_l2_{10,30,100}.json).
+    # 0.0734, for a re-render RMSE of 0.0393 / 0.0422 / 0.0447 (0.0384 without;
+    # results/probe_normal_l2_{10,30,100}.json).
     # 100 is the one whose normals are better than flat on most views (71 %, 53 % at 30).
     return Config(preset="compact", model=ModelConfig(base_width=8, max_width=64, levels=7, decoder_convs=1,
                                                       zero_output=True),
