@@ -25,7 +25,7 @@ from .errors import ConfigError
 from .log import get_logger
 from .parallel import run_chunks
 from .seeds import derive_seed
-from .store import ArraySpec, StoreWriter, write_chunk
+from .store import ArraySpec, StoreWriter, recorded_path, write_chunk
 from .svbrdf_store import SVBRDFStore, encode_maps, map_specs
 
 log = get_logger(__name__)
@@ -129,15 +129,15 @@ def run_blend(source, out, cfg: BlendConfig, workers: int = 2, scheduler_address
               "parents": ArraySpec((2,), "int64", "variant indices (a, b) in the source store"),
               "preset": ArraySpec((2,), "int32", "presets of a and b: index into attrs.presets"),
               "alpha": ArraySpec((), "float32", "weight of parent a (mask mode: expected mask mean)")}
-    attrs = {"presets": src.presets, "source": {"path": str(source), "config_hash": src.attrs["svgen"]["config_hash"],
+    attrs = {"presets": src.presets, "source": {"path": recorded_path(source, out), "config_hash": src.attrs["svgen"]["config_hash"],
                                                 "n": len(src)},
              "blend_rule": "maps: w*a + (1-w)*b; normals: slopes n/n_z mixed, renormalised"}
     config = {**as_dict(cfg), "source_hash": src.attrs["svgen"]["config_hash"]}
-    with StoreWriter(out, "blends", cfg.count, cfg.chunk, arrays, config, attrs) as w:
+    with StoreWriter(out, "blends", cfg.count, cfg.chunk, arrays, config, attrs, inputs=[source]) as w:
         todo = w.pending()
         task = functools.partial(_chunk_task, partial=str(w.partial), source=str(source), cfg=cfg,
                                  n_variants=len(src), n=cfg.count)
         done = w.done_samples()
         run_chunks(task, todo, workers=workers, scheduler_address=scheduler_address, desc="blend", unit="blend",
-                   total_units=cfg.count, done_units=done)
+                   total_units=cfg.count, done_units=done, task_bytes=w.task_bytes)
         return str(w.finalize())

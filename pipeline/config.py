@@ -92,8 +92,9 @@ def _positive(cfg, *names):
 
 
 def _seed(seed):
-    if not isinstance(seed, int) or seed < 0:
-        raise ConfigError(f"seed must be a non-negative integer, got {seed!r}")
+    from .bounds import check_seed
+
+    check_seed(seed)
 
 
 def field_docs(cls) -> dict[str, str]:

@@ -25,6 +25,7 @@ from materials.maps import SVBRDF, encode_normal
 from .errors import StoreError
 from .image_io import srgb_encode, write_exr, write_png
 from .progress import progress
+from .store import refuse_inside
 
 Writer = Callable[[Path, str, np.ndarray, SVBRDF, dict], list[Path]]
 FORMATS: dict[str, Writer] = {}
@@ -103,6 +104,7 @@ def export(store, out, fmt: str, limit: int | None = None) -> int:
     if fmt not in FORMATS:
         raise StoreError(f"unknown export format {fmt!r}; known: {', '.join(FORMATS)}")
     out = Path(out)
+    refuse_inside(out, store)
     if out.exists():
         raise StoreError(f"output {out} already exists; choose another path or delete it")
     reader = RendersReader(store)

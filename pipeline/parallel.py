@@ -78,7 +78,8 @@ def threads_per_worker(client) -> int:
 
 
 def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers: int = 2, scheduler_address: str | None = None,
-               desc: str = "chunks", unit: str = "it", total_units: int | None = None, done_units: int = 0) -> int:
+               desc: str = "chunks", unit: str = "it", total_units: int | None = None, done_units: int = 0,
+               task_bytes: int = 0) -> int:
     """Run ``fn(chunk_id, threads) -> units`` for every chunk on dask and show a units/s progress bar.
 
     Args:
@@ -89,6 +90,7 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
         scheduler_address: a running dask.distributed scheduler (or ``DASK_SCHEDULER_ADDRESS``).
         desc, unit: progress bar label and unit.
         total_units: units of the whole stage; done_units: already written (resume).
+        task_bytes: estimated peak memory of one task (StoreWriter.task_bytes); bounds the local workers.
 
     Returns:
         Units written by this call.
@@ -99,6 +101,10 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
     if not chunks:
         return 0
     address = resolve_scheduler(scheduler_address)
+    if not address:
+        from .bounds import check_workers
+
+        check_workers(max(1, workers), task_bytes)
     written = 0
     if workers == 0 and not address:
         # in this process, one chunk after another (debugging, profiling, tiny runs)

@@ -24,6 +24,7 @@ from .errors import ConfigError
 from .log import get_logger
 from .parallel import run_chunks
 from .seeds import derive_seed
+from .bounds import check_store_size
 from .store import ArraySpec, StoreWriter, write_chunk
 from .svbrdf_store import encode_maps, map_specs
 
@@ -112,6 +113,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, specs: list[VariantSpec],
 def run_sample(out, cfg: SampleConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
     """Write the variants store of ``cfg`` to ``out`` (resuming an interrupted run). Returns the path."""
     materials.registry.check_size(cfg.size)
+    check_store_size(out, len(select_presets(cfg)) * cfg.per_preset, cfg.chunk, map_specs(cfg.size))  # before plan()
     specs = plan(cfg)
     chosen = select_presets(cfg)
     names = [p.name for p in chosen]
@@ -132,5 +134,5 @@ def run_sample(out, cfg: SampleConfig, workers: int = 2, scheduler_address: str 
         if done:
             log.info("resuming %s: %d of %d variants already written", out, done, len(specs))
         run_chunks(task, todo, workers=workers, scheduler_address=scheduler_address, desc="sample", unit="variant",
-                   total_units=len(specs), done_units=done)
+                   total_units=len(specs), done_units=done, task_bytes=w.task_bytes)
         return str(w.finalize())

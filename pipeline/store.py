@@ -9,13 +9,29 @@ Life of a store written by a stage:
 2. Workers write whole chunks with :func:`write_chunk` (aligned regions of the
    ``zarr.Array``, never ``da.to_zarr``: DESIGN.md) and then drop a marker file
    ``.done/<chunk>``; a marker exists only after its chunk's bytes are on disk.
-3. :meth:`StoreWriter.finalize` checks every marker, writes ``complete: true``,
-   consolidates metadata and renames ``.partial`` into place.
+3. :meth:`StoreWriter.finalize` checks every marker, writes the chunk manifest
+   (``svgen_manifest.json``: per array and chunk, the chunk file's size and SHA-256, or null where zarr wrote
+   no file because the chunk is all fill value), writes ``complete: true``, consolidates metadata and renames
+   ``.partial`` into place.
+
+Creation is atomic: the group, its arrays and attributes are built in ``<out>.partial.creating`` and renamed to
+``<out>.partial`` only when whole, so a ``.partial`` is always resumable; a leftover ``.creating`` (or a
+``.partial`` left half-created by an older svgen: no svgen attributes, no chunk written) is recreated.
 
 A rerun after a kill finds the ``.partial`` store, checks that it was started
 by the same configuration (a hash of it) and writes only the chunks without a
-marker. Chunks carry a CRC32C checksum (zarr codec), so a corrupted chunk is
-detected on read and named by :func:`read_region`.
+marker.
+
+What is verified when (see :func:`check_chunks`, :func:`verify_store`):
+
+* every open (:func:`open_store`, i.e. every reader: render, blend, export, fit, eval): the manifest is read
+  and every chunk file is ``stat``-ed: a missing chunk, a chunk file the manifest does not list, or one whose
+  size changed is refused, naming the array and the samples. zarr would read a missing chunk as zeros.
+* every read: zarr's CRC32C codec checks the bytes of each chunk it decodes (:func:`read_region` names it).
+* on request: :func:`verify_store` re-hashes every chunk file against the manifest's SHA-256.
+
+Stores written before manifests (schema 1) are refused with a line that says to re-create them: without a
+manifest a missing chunk cannot be told from an all-fill-value chunk that zarr never writes.
 """
 from __future__ import annotations
 
@@ -35,7 +51,9 @@ from zarr.codecs import Crc32cCodec, ZstdCodec
 
 from .errors import StoreError
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: chunk manifest (svgen_manifest.json) written at finalize
+MANIFEST = "svgen_manifest.json"
+CREATING_SUFFIX = ".creating"
 PARTIAL_SUFFIX = ".partial"
 #: the temporary name of a chunk zarr's LocalStore is writing (zarr/storage/_local.py: ``.{uuid4 hex}.partial``).
 ZARR_TMP = re.compile(r"\.[0-9a-f]{32}\.partial$")
@@ -87,6 +105,35 @@ def partial_path(path: str | os.PathLike) -> Path:
     return p.with_name(p.name + PARTIAL_SUFFIX)
 
 
+def inside(path: str | os.PathLike, other: str | os.PathLike) -> bool:
+    """Whether ``path`` is ``other`` or lies under it (both resolved, so spelling and symlinks do not matter)."""
+    a, b = Path(path).resolve(), Path(other).resolve()
+    return a == b or b in a.parents
+
+
+def refuse_inside(out: str | os.PathLike, inputs) -> None:
+    """Refuse an output that is an input, lies inside one, or contains one: no command may modify its input.
+
+    Raises:
+        StoreError: naming the output and the input.
+    """
+    if inputs is None:
+        return
+    for i in ([inputs] if isinstance(inputs, (str, bytes)) or hasattr(inputs, "__fspath__") else list(inputs)):
+        if i is None:
+            continue
+        for o in (Path(out), partial_path(out)):
+            if inside(o, i) or inside(i, o):
+                raise StoreError(f"output {out} lies inside input {i} (or contains it): a command never writes into "
+                                 "its input; choose an output outside it")
+
+
+def recorded_path(path: str | os.PathLike, out: str | os.PathLike) -> str:
+    """How a store records an input path: relative to the output's directory, resolved first, so the absolute and
+    the relative spellings of one input record the same string (and a store moved with its inputs stays valid)."""
+    return os.path.relpath(Path(path).resolve(), Path(out).resolve().parent)
+
+
 def _compressors():
     # zstd: good ratio on maps/renders at speed; CRC32C: detects corrupted chunks on read.
     return [ZstdCodec(level=5), Crc32cCodec()]
@@ -103,10 +150,11 @@ class StoreWriter:
         arrays: name -> :class:`ArraySpec`.
         config: the resolved stage configuration; its hash decides whether a partial store may be resumed.
         attrs: further attributes (parameters, seeds, tables) written at creation.
+        inputs: the stores this run reads; an output inside one of them is refused.
     """
 
     def __init__(self, path, kind: str, n: int, chunk: int, arrays: dict[str, ArraySpec], config: dict,
-                 attrs: dict | None = None):
+                 attrs: dict | None = None, inputs=()):
         self.final = Path(path)
         self.partial = partial_path(self.final)
         self.lockfile = self.final.with_name(self.final.name + LOCK_SUFFIX)
@@ -118,8 +166,17 @@ class StoreWriter:
         self._lock_fd: int | None = None
         if n <= 0:
             raise StoreError(f"nothing to write: {kind} store with {n} samples")
+        refuse_inside(self.final, inputs)
         if self.final.exists():
             raise StoreError(f"output {self.final} already exists; choose another path or delete it")
+        from .bounds import check_store_size
+
+        #: estimated peak bytes of one chunk task (pass to run_chunks: it bounds the local workers by memory)
+        self.task_bytes = check_store_size(self.final, self.n, self.chunk, arrays)
+
+    @property
+    def creating(self) -> Path:
+        return self.partial.with_name(self.partial.name + CREATING_SUFFIX)
 
     # -- lifecycle -------------------------------------------------------------------------------
     def __enter__(self) -> "StoreWriter":
@@ -135,12 +192,11 @@ class StoreWriter:
             self.__exit__()
             raise StoreError(f"output {self.final} already exists; choose another path or delete it")
         try:
-            self.partial.mkdir(exist_ok=True)
-            if (self.partial / "zarr.json").exists():
+            if self._started():
                 self._check_resumable()
+                (self.partial / DONE_DIR).mkdir(exist_ok=True)
             else:
                 self._create()
-            (self.partial / DONE_DIR).mkdir(exist_ok=True)
         except BaseException:
             self.__exit__()  # keep whatever is there: it may be another configuration's resumable work
             raise
@@ -152,14 +208,37 @@ class StoreWriter:
             # failed before any chunk was written (bad option, unreachable scheduler ...): nothing to resume,
             # so leave nothing behind
             shutil.rmtree(self.partial, ignore_errors=True)
+            shutil.rmtree(self.creating, ignore_errors=True)
             os.remove(self.lockfile)
         if self._lock_fd is not None:
             fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
             os.close(self._lock_fd)
             self._lock_fd = None
 
+    def _started(self) -> bool:
+        """Whether ``.partial`` holds a fully created store (resumable) rather than nothing or a creation cut short.
+
+        Raises:
+            StoreError: a ``.partial`` without svgen attributes that nevertheless holds written chunks.
+        """
+        if not (self.partial / "zarr.json").exists():
+            return False  # nothing, or an empty directory an older svgen made before creating the group
+        try:
+            meta = dict(zarr.open_group(self.partial, mode="r").attrs).get("svgen")
+        except Exception as e:
+            raise StoreError(f"{self.partial} exists but cannot be read ({_one_line(e)}); delete it to start over") \
+                from None
+        if isinstance(meta, dict):
+            return True
+        done = self.partial / DONE_DIR
+        if done.exists() and any(done.iterdir()):
+            raise StoreError(f"{self.partial} has written chunks but no svgen attributes; delete it to start over")
+        return False  # an older svgen was killed between the group's zarr.json and its attributes: no work lost
+
     def _create(self) -> None:
-        g = zarr.open_group(self.partial, mode="w", zarr_format=3)
+        """Build the empty store under ``.partial.creating`` and rename it to ``.partial`` when whole (atomic)."""
+        shutil.rmtree(self.creating, ignore_errors=True)  # a creation cut short by a kill
+        g = zarr.open_group(self.creating, mode="w", zarr_format=3)
         for name, spec in self.arrays.items():
             g.create_array(name, shape=(self.n, *spec.shape), chunks=(self.chunk, *spec.shape), dtype=spec.dtype,
                            compressors=_compressors(), fill_value=0, dimension_names=None)
@@ -174,12 +253,18 @@ class StoreWriter:
             "config": self.config,
             **self.attrs,
         })
+        (self.creating / DONE_DIR).mkdir()
+        _kill_hook("create")
+        if self.partial.exists():  # a half-created partial of an older svgen (see _started): holds no chunk
+            shutil.rmtree(self.partial)
+        os.replace(self.creating, self.partial)
 
     def _check_resumable(self) -> None:
         try:
             meta = dict(zarr.open_group(self.partial, mode="r").attrs).get("svgen", {})
         except Exception as e:
-            raise StoreError(f"{self.partial} exists but cannot be read ({e}); delete it to start over") from None
+            raise StoreError(f"{self.partial} exists but cannot be read ({_one_line(e)}); delete it to start over") \
+                from None
         if meta.get("kind") != self.kind or meta.get("config_hash") != self.hash:
             raise StoreError(f"{self.partial} was started with a different configuration; rerun with the same options "
                              "to resume, or delete it to start over")
@@ -207,9 +292,15 @@ class StoreWriter:
         if missing:
             raise StoreError(f"cannot finalize {self.final}: chunks {missing[:5]}... are not written")
         g = zarr.open_group(self.partial, mode="r+")
+        manifest = {"algorithm": "sha256/128", "n": self.n, "chunk": self.chunk,
+                    "arrays": {name: [None] * self.n_chunks for name in self.arrays}}
+        for c in range(self.n_chunks):
+            rec = _chunk_record(self.partial, g, c, self.arrays, self.partial / DONE_DIR / str(c))
+            for name in self.arrays:
+                manifest["arrays"][name][c] = rec[name]
         meta = dict(g.attrs)
         meta.update(attrs or {})
-        meta["svgen"] = {**meta["svgen"], "complete": True}
+        meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST}
         g.attrs.put(meta)
         shutil.rmtree(self.partial / DONE_DIR)
         # zarr's LocalStore writes each chunk to "<key>.<uuid hex>.partial" and renames it: a kill mid-write leaves
@@ -219,6 +310,8 @@ class StoreWriter:
             if orphan.is_file() and ZARR_TMP.search(orphan.name):
                 orphan.unlink()
         zarr.consolidate_metadata(self.partial)
+        # after consolidation, which would warn about a file that is not part of the zarr hierarchy
+        (self.partial / MANIFEST).write_text(json.dumps(manifest, sort_keys=True, separators=(",", ":")))
         os.replace(self.partial, self.final)  # still under the lock: nobody else can have made final
         os.remove(self.lockfile)
         self.__exit__()
@@ -237,10 +330,52 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
     g = zarr.open_group(partial, mode="r+")
     for name, arr in data.items():
         g[name][start:start + len(arr)] = arr
+    # the marker is the chunk's record in the manifest-to-be: size and hash of each array's chunk file, hashed
+    # here, once, by the worker that wrote it
+    record = {name: _file_record(Path(partial) / name / _chunk_key(g[name], c)) for name in data}
     marker = Path(partial) / DONE_DIR / str(c)
     tmp = marker.with_suffix(".tmp")
-    tmp.write_text("ok")
+    tmp.write_text(json.dumps(record, sort_keys=True))
     os.replace(tmp, marker)
+    _kill_hook("chunk")
+
+
+def _kill_hook(moment: str) -> None:
+    """Tests kill a real run at a chosen moment: ``SVGEN_TEST_KILL_AT=create`` (the store is created, not yet
+    renamed) or ``chunk`` (right after the first chunk's marker). Unset in normal use: does nothing."""
+    if os.environ.get("SVGEN_TEST_KILL_AT") == moment:
+        import signal
+
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _one_line(e: object) -> str:
+    return " ".join(str(e).split())
+
+
+def _chunk_key(arr: zarr.Array, c: int) -> str:
+    """Path of chunk ``c`` (along the sample axis) of ``arr`` relative to the array's directory."""
+    return arr.metadata.encode_chunk_key((c,) + (0,) * (arr.ndim - 1))
+
+
+def _file_record(path: Path) -> list | None:
+    """[size, sha256 (128 bits, hex)] of a chunk file; None where zarr wrote none (the chunk is all fill value)."""
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return None
+    return [len(data), hashlib.sha256(data).hexdigest()[:32]]
+
+
+def _chunk_record(partial: Path, g: zarr.Group, c: int, arrays, marker: Path) -> dict:
+    """The manifest record of chunk ``c``: from its marker, or hashed now for a marker an older svgen wrote."""
+    try:
+        rec = json.loads(marker.read_text())
+    except (ValueError, OSError):
+        rec = {}
+    if not isinstance(rec, dict) or set(rec) != set(arrays):
+        rec = {name: _file_record(partial / name / _chunk_key(g[name], c)) for name in arrays}
+    return rec
 
 
 def open_store(path: str | os.PathLike, kind: str | tuple[str, ...]) -> zarr.Group:
@@ -252,17 +387,21 @@ def open_store(path: str | os.PathLike, kind: str | tuple[str, ...]) -> zarr.Gro
     p = Path(path)
     kinds = (kind,) if isinstance(kind, str) else tuple(kind)
     want = " or ".join(kinds)
+    if p.name.endswith(PARTIAL_SUFFIX) or p.name.endswith(PARTIAL_SUFFIX + CREATING_SUFFIX):
+        final = p.with_name(p.name[:p.name.rindex(PARTIAL_SUFFIX)])
+        raise StoreError(f"{p} is an unfinished store (a run writing {final} is in progress or was interrupted); "
+                         f"rerun its command to resume, then use {final}")
     if not p.exists():
         if partial_path(p).exists():
             raise StoreError(f"{p} is incomplete (an interrupted run left {partial_path(p)}); rerun its command to resume")
-        raise StoreError(f"no store at {p}")
+        raise StoreError(f"no store at {p}: it does not exist")
     if not (p / "zarr.json").exists():
         raise StoreError(f"{p} is not a zarr v3 store (expected a {want} store)")
     try:
         g = zarr.open_consolidated(p, mode="r", zarr_format=3)
         meta = dict(g.attrs).get("svgen")
     except Exception as e:
-        raise StoreError(f"{p} cannot be opened as a zarr v3 store: {e}") from None
+        raise StoreError(f"{p} cannot be opened as a zarr v3 store: {_one_line(e)}") from None
     if not isinstance(meta, dict) or "kind" not in meta:
         raise StoreError(f"{p} is not an svgen store (no svgen attributes); expected a {want} store")
     if meta["kind"] not in kinds:
@@ -274,7 +413,74 @@ def open_store(path: str | os.PathLike, kind: str | tuple[str, ...]) -> zarr.Gro
     for name in meta.get("arrays", {}):
         if name not in g:
             raise StoreError(f"{p} lacks its array {name!r}")
+    check_chunks(p, g, meta)
     return g
+
+
+def _manifest(p: Path, meta: dict) -> dict:
+    if meta.get("schema_version", 0) < 2 or not (p / MANIFEST).exists():
+        raise StoreError(f"{p} was written by an older svgen without a chunk manifest (schema "
+                         f"{meta.get('schema_version', 0)}), so missing chunks cannot be detected; re-create it with "
+                         "this svgen (rerun its command, or `dvc repro`)")
+    try:
+        return json.loads((p / MANIFEST).read_text())
+    except (ValueError, OSError) as e:
+        raise StoreError(f"{p}: its chunk manifest {MANIFEST} cannot be read ({_one_line(e)}); re-create the store") \
+            from None
+
+
+def check_chunks(path: str | os.PathLike, g: zarr.Group, meta: dict) -> None:
+    """The cheap check of every open: each chunk the manifest lists exists with its size, and no other does.
+
+    One ``stat`` per chunk file (no reading): zarr reads a missing chunk as its fill value (zeros), which would
+    silently turn a damaged store into black maps or zero seeds.
+
+    Raises:
+        StoreError: naming the array, the chunk and its samples.
+    """
+    p = Path(path)
+    man = _manifest(p, meta)
+    n, chunk = int(man["n"]), int(man["chunk"])
+    for name, recs in man["arrays"].items():
+        arr = g[name]
+        for c, rec in enumerate(recs):
+            f = p / name / _chunk_key(arr, c)
+            try:
+                size = os.stat(f).st_size
+            except FileNotFoundError:
+                size = None
+            if (rec is None) != (size is None) or (rec is not None and rec[0] != size):
+                a, b = c * chunk, min(n, (c + 1) * chunk)
+                what = "is missing chunk" if size is None else \
+                    "has a chunk the manifest does not list:" if rec is None else "has a changed chunk"
+                raise StoreError(f"{p}: array {name!r} {what} {c} (samples {a}:{b}); the store is damaged: "
+                                 "re-create it or restore it (dvc checkout)")
+
+
+def verify_store(path: str | os.PathLike) -> int:
+    """Full verification: re-hash every chunk file of a complete store against its manifest.
+
+    Returns:
+        the number of chunk files checked.
+
+    Raises:
+        StoreError: the first chunk whose bytes differ, naming the array and the samples.
+    """
+    g = open_store(path, tuple(_ALL_KINDS))
+    p = Path(path)
+    man = json.loads((p / MANIFEST).read_text())
+    n, chunk, checked = int(man["n"]), int(man["chunk"]), 0
+    for name, recs in man["arrays"].items():
+        for c, rec in enumerate(recs):
+            if rec is not None:
+                if _file_record(p / name / _chunk_key(g[name], c)) != rec:
+                    raise StoreError(f"{p}: array {name!r} chunk {c} (samples {c * chunk}:{min(n, (c + 1) * chunk)}) "
+                                     "does not match its checksum; the store is damaged: re-create or restore it")
+                checked += 1
+    return checked
+
+
+_ALL_KINDS = ("variants", "blends", "stress", "renders")
 
 
 def read_region(g: zarr.Group, name: str, start: int, stop: int) -> np.ndarray:

@@ -165,6 +165,10 @@ def run_stress(out, per_category: int, size: int, seed: int, categories: tuple[s
             raise ConfigError(f"unknown stress category {c!r}; known: {', '.join(CATEGORIES)}")
     if per_category < 1:
         raise ConfigError(f"--per-category must be >= 1, got {per_category}")
+    from .bounds import check_seed, check_store_size
+
+    check_seed(seed)
+    check_store_size(out, len(cats) * per_category, chunk, map_specs(size))  # before the plan is listed
     plan = [(c, derive_seed(seed, "stress", zlib.crc32(c.encode()), j)) for c in cats for j in range(per_category)]
     arrays = {**map_specs(size), "seed": ArraySpec((), "uint64", "derived sample seed"),
               "category": ArraySpec((), "int16", "index into attrs.categories"),
@@ -176,5 +180,5 @@ def run_stress(out, per_category: int, size: int, seed: int, categories: tuple[s
         task = functools.partial(_chunk_task, partial=str(w.partial), plan=plan, chunk=chunk, size=size,
                                  categories=cats)
         run_chunks(task, w.pending(), workers=workers, scheduler_address=scheduler_address, desc="stress",
-                   unit="svbrdf", total_units=len(plan), done_units=w.done_samples())
+                   unit="svbrdf", total_units=len(plan), done_units=w.done_samples(), task_bytes=w.task_bytes)
         return str(w.finalize())

@@ -126,13 +126,16 @@ class SVBRDFInputs:
 
     Args:
         paths: one or more store paths.
+        out: the store being written from them: :meth:`describe` records the paths relative to its directory
+            (the same string for any spelling of the same input). None records them as given.
     """
 
-    def __init__(self, paths):
+    def __init__(self, paths, out=None):
         paths = [paths] if isinstance(paths, (str, bytes)) or hasattr(paths, "__fspath__") else list(paths)
         if not paths:
             raise StoreError("no input store given")
         self.paths = [str(p) for p in paths]
+        self.out = out
         self.stores = [SVBRDFStore(p, KINDS) for p in self.paths]
         sizes = {s.size for s in self.stores}
         if len(sizes) != 1:
@@ -148,7 +151,9 @@ class SVBRDFInputs:
 
     def describe(self) -> list[dict]:
         """Identity of every input (path, kind, size, config hash) for the attributes of a derived store."""
-        return [{"path": p, "kind": s.kind, "n": len(s), "config_hash": s.attrs["svgen"]["config_hash"]}
+        from .store import recorded_path
+
+        return [{"path": p if self.out is None else recorded_path(p, self.out), "kind": s.kind, "n": len(s), "config_hash": s.attrs["svgen"]["config_hash"]}
                 for p, s in zip(self.paths, self.stores)]
 
     def segments(self, start: int, stop: int):

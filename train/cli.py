@@ -60,12 +60,14 @@ def fit(preset, params_file, overrides, store, iterations, batch_size, seed, wor
 @click.option("--store", default=None, help="Evaluate on this renders store instead of the training one.")
 @click.option("--limit", type=int, default=None, help="Evaluate at most this many samples.")
 @click.option("--out", default=None, help="Output directory (default: the run directory).")
-def eval_(ckpt, suite, store, limit, out):
+@click.option("--train-store", default=None,
+              help="The run's training store, if it moved (default: found through the run's run.json).")
+def eval_(ckpt, suite, store, limit, out, train_store):
     """RMSE per map and of re-renderings, beside the baselines (eval.json, eval.md)."""
     from .evaluate import markdown, run_eval
 
     out = out or (ckpt if Path(ckpt).is_dir() else str(Path(ckpt).parent))
-    res = run_eval(ckpt, out, suite=suite, store=store, limit=limit)
+    res = run_eval(ckpt, out, suite=suite, store=store, limit=limit, train_store=train_store)
     click.echo(markdown(res), nl=False)
 
 

@@ -14,6 +14,7 @@ from typing import Any
 import yaml
 
 from pipeline.errors import ConfigError
+from pipeline.bounds import MAX_SEED
 
 
 #: learning-rate schedules of OptimConfig.schedule (train.fit.lr_at).
@@ -141,9 +142,11 @@ class Config:
             (d.synthetic_kind in ("simple", "presets"), "data.synthetic_kind must be 'simple' or 'presets'"),
             (d.store is not None or d.synthetic_size >= d.crop, "data.synthetic_size must be >= data.crop"),
             (o.lr > 0 and 0 <= o.beta1 < 1 and 0 <= o.beta2 < 1, "optim.lr > 0 and betas in [0, 1)"),
-            (o.batch_size >= 1 and o.iterations >= 0, "optim.batch_size >= 1, optim.iterations >= 0"),
+            (o.batch_size >= 1, "optim.batch_size must be >= 1"),
+            (o.iterations >= 1, "optim.iterations must be >= 1 (0 steps would write a 'done' run with no loss)"),
             (o.checkpoint_every >= 1 and o.log_every >= 1, "optim.checkpoint_every/log_every >= 1"),
-            (o.seed >= 0, "optim.seed must be >= 0"),
+            (0 <= o.seed <= MAX_SEED, "optim.seed must be a non-negative integer below 2^64"),
+            (0 <= d.synthetic_seed <= MAX_SEED, "data.synthetic_seed must be a non-negative integer below 2^64"),
             (o.grad_clip >= 0, "optim.grad_clip must be >= 0 (0 = off)"),
             (o.map_l1 >= 0, "optim.map_l1 must be >= 0 (0 = rendering loss only)"),
             (o.normal_l2 >= 0, "optim.normal_l2 must be >= 0 (0 = off)"),

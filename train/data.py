@@ -207,10 +207,8 @@ def _one_thread(_worker_id: int) -> None:
 def open_source(data_cfg) -> Source:
     """The renders store at ``data_cfg.store``, or the synthetic source when it is None."""
     if data_cfg.store:
-        from pathlib import Path
-
-        if not Path(data_cfg.store).exists():
-            raise StoreError(f"renders store {data_cfg.store!r} does not exist")
+        # no existence check here: open_store says "does not exist", or "incomplete ... rerun to resume" where
+        # an interrupted run left <store>.partial, the same line as svgen
         try:
             from pipeline.render.store import RendersReader
         except ImportError as e:

@@ -24,7 +24,9 @@ import numpy as np
 import torch
 
 from pipeline.errors import ConfigError
+from pipeline.store import refuse_inside
 
+from . import runinfo
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .config import Config
 from .data import PairDataset, open_source, split_by_source
@@ -222,8 +224,11 @@ def markdown(res: dict) -> str:
 
 
 def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "heldout",
-             store: str | None = None, limit: int | None = None) -> dict:
+             store: str | None = None, limit: int | None = None, train_store: str | None = None) -> dict:
     """Evaluate a checkpoint on a suite; writes eval.json, eval.md and eval.png (bars) into ``out_dir``.
+
+    The training store (baseline means, and the held-out split without ``store``) is found from any working
+    directory through the run's ``run.json`` (:mod:`train.runinfo`), or given as ``train_store``.
 
     Returns:
         for one-group suites: {"model"|baseline: {column: RMSE}, "samples", "suite", "beats_baselines"};
@@ -234,6 +239,9 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     if suite not in SUITES:
         raise ConfigError(f"unknown eval suite {suite!r}; known: {', '.join(sorted(SUITES))}")
     model, cfg = load_model(checkpoint_path)
+    cfg = dataclasses.replace(cfg, data=dataclasses.replace(
+        cfg.data, store=runinfo.train_store(checkpoint_path, cfg.data.store, train_store)))
+    refuse_inside(out_dir, [s for s in (store, cfg.data.store) if s])
     groups = SUITES[suite](cfg, store)
     train_src = open_source(cfg.data)  # baseline means: the training split of the training store
     train_idx, _ = split_by_source(train_src, cfg.data.holdout, cfg.optim.seed)

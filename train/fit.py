@@ -24,7 +24,7 @@ from pipeline.log import get_logger
 from pipeline.progress import progress
 from pipeline.seeds import derive_seed
 
-from . import checkpoint
+from . import checkpoint, runinfo
 from .config import Config, OptimConfig
 from .data import PairDataset, make_loader, open_source, split_by_source
 from .loss import make_loss
@@ -140,8 +140,10 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
     # open the data first: a bad store must fail before the run directory exists
     src = source if source is not None else open_source(cfg.data)
     train_idx, test_idx = split_by_source(src, cfg.data.holdout, o.seed)
+    runinfo.check_run(cfg, out_dir, len(train_idx))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    runinfo.record(out, cfg.data.store)
     if o.threads:
         torch.set_num_threads(o.threads)
     ckpt_path = out / "checkpoint.pt"

@@ -59,8 +59,9 @@ class RenderConfig:
             raise ConfigError(f"unknown sampler {self.sampler!r}; use one of {', '.join(SAMPLERS)}")
         if self.sampler != "independent" and math.isqrt(self.spp) ** 2 != self.spp:
             raise ConfigError(f"sampler {self.sampler!r} needs a square spp (1, 4, 9 ...), got {self.spp}")
-        if not isinstance(self.seed, int) or self.seed < 0:
-            raise ConfigError(f"seed must be a non-negative integer, got {self.seed!r}")
+        from ..bounds import check_seed
+
+        check_seed(self.seed)
         return self
 
 
@@ -155,7 +156,7 @@ def render_writer(inputs, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:
     from .views import R_MAX, R_MIN, ZOOM_MAX, ZOOM_MIN
 
     cfg = cfg.check()
-    src = SVBRDFInputs(inputs)
+    src = SVBRDFInputs(inputs, out)
     n = len(src)
     arrays = array_specs(cfg.views, cfg.res, src.size)
     attrs = {
@@ -170,9 +171,10 @@ def render_writer(inputs, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:
                               "shift": "U(0, 1)^2 tiles", "seed": "derive_seed(seed, 'render', svbrdf, view)"},
         "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)",
     }
-    # the inputs' identity is part of the config: resuming against different inputs must be refused
-    config = {**as_dict(cfg), "inputs": attrs["inputs"]}
-    return StoreWriter(out, KIND, n, cfg.chunk, arrays, config, attrs), n
+    # the inputs' identity (kind, size, config hash: not how their path is spelled) is part of the config:
+    # resuming against different inputs must be refused, with any spelling of the same inputs accepted
+    config = {**as_dict(cfg), "inputs": [{k: v for k, v in d.items() if k != "path"} for d in attrs["inputs"]]}
+    return StoreWriter(out, KIND, n, cfg.chunk, arrays, config, attrs, inputs=_paths(inputs)), n
 
 
 def chunk_task(w: StoreWriter, inputs, cfg: RenderConfig, n: int):
@@ -202,5 +204,5 @@ def run_render(inputs, out, cfg: RenderConfig, workers: int = 2, scheduler_addre
             log.info("resuming %s: %d of %d SVBRDFs already rendered", out, done, n)
         run_chunks(chunk_task(w, inputs, cfg, n), w.pending(), workers=workers,
                    scheduler_address=scheduler_address, desc="render", unit="view", total_units=n * cfg.views,
-                   done_units=done * cfg.views)
+                   done_units=done * cfg.views, task_bytes=w.task_bytes)
         return str(w.finalize())

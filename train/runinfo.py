@@ -1,0 +1,90 @@
+"""Where a run's training store is, recorded so that the run is usable from any working directory.
+
+A run's config keeps ``data.store`` as the user spelled it (often relative to the project, e.g.
+``data/renders.zarr``: what params.yaml and DVC say). ``svtrain fit`` also writes ``run.json`` into the run
+directory with the store's path relative to the run directory, which holds from anywhere and when the project
+is moved as a whole. ``svtrain eval`` (its baselines need the training split's means) finds the store through it.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from pipeline.errors import StoreError
+
+RUN_FILE = "run.json"
+
+
+def record(run_dir: str | os.PathLike, store: str | None) -> None:
+    """Write ``run_dir/run.json``: the training store as given and relative to the run directory."""
+    run = Path(run_dir)
+    info = {"train_store": None if store is None else
+            {"as_given": str(store), "from_run": os.path.relpath(Path(store).resolve(), run.resolve())}}
+    tmp = run / (RUN_FILE + ".tmp")
+    tmp.write_text(json.dumps(info, indent=1) + "\n")
+    os.replace(tmp, run / RUN_FILE)
+
+
+def run_dir_of(checkpoint_path: str | os.PathLike) -> Path:
+    p = Path(checkpoint_path)
+    return p if p.is_dir() else p.parent
+
+
+def train_store(checkpoint_path: str | os.PathLike, store: str | None, override: str | None = None) -> str | None:
+    """The training store of a run, as a path valid from the current directory (None: synthetic source).
+
+    Tried in order: ``override`` (``--train-store``); the recorded path relative to the run directory; the path
+    as given, if absolute or found from here.
+
+    Raises:
+        StoreError: the run trained on a store and none of these finds it.
+    """
+    if override:
+        return str(override)
+    if store is None:
+        return None
+    run = run_dir_of(checkpoint_path)
+    tried = []
+    try:
+        rel = json.loads((run / RUN_FILE).read_text())["train_store"]["from_run"]
+        tried.append(run / rel)
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    tried.append(Path(store))
+    for p in tried:
+        if p.exists() or Path(str(p) + ".partial").exists():
+            return str(p)
+    raise StoreError(f"eval needs the run's training store (its baselines use the training split's means): "
+                     f"{store!r} is not found from {os.getcwd()} nor relative to the run directory {run}; "
+                     "pass --train-store PATH")
+
+
+#: activation bytes kept per pixel and channel of an encoder level through forward and backward (float32 value,
+#: gradient, norm and activation copies, the decoder's mirror level and skip concatenation): a generous estimate.
+ACT_FACTOR = 8 * 4
+
+
+def check_run(cfg, out_dir: str | os.PathLike, n_train: int) -> None:
+    """Refuse, before the run directory is made, what cannot work: an output inside the training store, a batch
+    larger than the training split, a batch whose activations cannot fit in the available memory.
+
+    Raises:
+        ConfigError / StoreError: one line naming the limit.
+    """
+    from pipeline.bounds import available_memory
+    from pipeline.errors import ConfigError
+    from pipeline.store import refuse_inside
+
+    refuse_inside(out_dir, cfg.data.store)
+    b = cfg.optim.batch_size
+    if b > n_train:
+        raise ConfigError(f"optim.batch_size {b} is larger than the {n_train} training samples of the split; "
+                          f"use at most {n_train}")
+    m, crop = cfg.model, cfg.data.crop
+    per_sample = ACT_FACTOR * sum(w * (crop >> i) ** 2 for i, w in enumerate(m.widths()))
+    mem = available_memory()
+    if b * per_sample > mem:
+        raise ConfigError(f"optim.batch_size {b} needs about {b * per_sample / 2**30:.1f} GiB of activations at "
+                          f"crop {crop} ({per_sample / 2**20:.0f} MiB per sample), more than the "
+                          f"{mem / 2**30:.1f} GiB available; use at most {max(1, mem // per_sample)}")
