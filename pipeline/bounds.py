@@ -5,7 +5,8 @@ kernel's OOM killer (exit 137, no message, a lock left behind) or ran silently f
 deliberately generous to the user: they refuse only what certainly cannot fit.
 
 * memory of one chunk task: ``chunk x raw bytes per sample x TASK_FACTOR`` (the task assembles the chunk's
-  arrays, stacks them into one buffer and zarr holds the compressed copy) must fit in the available memory;
+  arrays, stacks them into one buffer and zarr holds the compressed copy; zarr allocates a whole chunk even for
+  the short last one) must fit in the available memory;
 * local workers: ``workers x (WORKER_BYTES + task bytes)`` must fit in the available memory;
 * disk: the store's raw size divided by MAX_COMPRESSION must fit in the free space of the output's file system;
 * seeds: integers in [0, 2^64 - 1] everywhere (:func:`check_seed`).
@@ -73,7 +74,7 @@ def check_store_size(out, n: int, chunk: int, arrays) -> int:
         the estimated peak bytes of one chunk task.
     """
     per = sample_bytes(arrays)
-    task = min(chunk, n) * per * TASK_FACTOR
+    task = chunk * per * TASK_FACTOR  # not min(chunk, n): zarr allocates a whole chunk to write a partial one
     mem = available_memory()
     if task > mem:
         raise ConfigError(f"chunk {chunk} needs about {task / GiB:.1f} GiB per task ({per / 2**20:.2f} MiB per sample "

@@ -1,0 +1,109 @@
+"""Paths (issue 15): output bytes do not depend on how an input path is spelled, a killed run resumes with the
+other spelling, no command writes into or modifies its input, and a run is usable from any working directory."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from conftest import tree_digest
+from pipeline.store import partial_path
+from test_bad_input import call
+from train.cli import svtrain
+
+RENDER = ["--config", "tiny", "--views", "1", "--res", "16", "--chunk", "1", "--workers", "0"]
+FIT = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
+       "--set", "data.crop=16", "--set", "data.holdout=0.5", "--set", "optim.batch_size=1",
+       "--workers", "0", "--no-compile", "--iterations", "1"]
+
+
+@pytest.fixture(scope="module")
+def project(tmp_path_factory):
+    """A project directory with data/v.zarr (4 variants) and data/r.zarr (its renders)."""
+    from pipeline.cli import cli
+
+    d = tmp_path_factory.mktemp("project")
+    (d / "data").mkdir()
+    code, err = call(cli, "svgen", ["sample", d / "data" / "v.zarr", "--config", "tiny", "--per-preset", "2",
+                                    "--chunk", "1", "--workers", "0", "--preset", "paint/glossy_red",
+                                    "--preset", "wood/oak_planks"])
+    assert code == 0, err
+    code, err = call(cli, "svgen", ["render", d / "data" / "v.zarr", d / "data" / "r.zarr", *RENDER])
+    assert code == 0, err
+    return d
+
+
+def test_absolute_and_relative_input_spellings_give_identical_bytes(project, tmp_path, monkeypatch, svgen_cli):
+    monkeypatch.chdir(project)
+    for cmd in (["render", *RENDER], ["blend", "--config", "tiny", "--workers", "0"]):
+        code, err = svgen_cli(cmd[0], "data/v.zarr", tmp_path / "rel" / "o.zarr", *cmd[1:])
+        assert code == 0, err
+        code, err = svgen_cli(cmd[0], project / "data" / ".." / "data" / "v.zarr", tmp_path / "abs" / "o.zarr",
+                              *cmd[1:])
+        assert code == 0, err
+        assert tree_digest(tmp_path / "rel" / "o.zarr") == tree_digest(tmp_path / "abs" / "o.zarr"), cmd[0]
+        shutil.rmtree(tmp_path / "rel")
+        shutil.rmtree(tmp_path / "abs")
+
+
+def test_a_killed_run_resumes_with_the_other_spelling(project, tmp_path):
+    out = tmp_path / "r.zarr"
+    env = {**os.environ, "SVGEN_NO_PROGRESS": "1", "SVGEN_TEST_KILL_AT": "chunk"}
+    cmd = [sys.executable, "-c", "from pipeline.cli import main; main()", "render"]
+    r = subprocess.run([*cmd, "data/v.zarr", str(out), *RENDER], cwd=project, env=env, capture_output=True, text=True)
+    assert r.returncode == -9 and partial_path(out).exists(), r.stderr  # killed after its first chunk
+    env.pop("SVGEN_TEST_KILL_AT")
+    r = subprocess.run([*cmd, str(project / "data" / "v.zarr"), str(out), *RENDER], env=env, capture_output=True,
+                       text=True)
+    assert r.returncode == 0, r.stderr
+    ref = tmp_path / "ref.zarr"
+    r = subprocess.run([*cmd, "data/v.zarr", str(ref), *RENDER], cwd=project, env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert tree_digest(out) == tree_digest(ref)
+
+
+def test_no_command_writes_into_or_modifies_its_input(project, tmp_path, svgen_cli):
+    v, r = project / "data" / "v.zarr", project / "data" / "r.zarr"
+    before = tree_digest(v), tree_digest(r)
+    refused = [("render", v, v / "out.zarr", *RENDER), ("render", v, v.parent / "." / "v.zarr" / "x", *RENDER),
+               ("blend", v, v / "b.zarr", "--config", "tiny"), ("export", r, r / "png")]
+    for args in refused:
+        code, err = svgen_cli(*args)
+        assert code == 2 and "lies inside input" in err, (args, err)
+    for args in (["fit", "--store", r, "--out", r / "run", *FIT],):
+        code, err = call(svtrain, "svtrain", args)
+        assert code == 2 and "lies inside input" in err, (args, err)
+    # and the commands that succeed leave their inputs byte-identical
+    assert svgen_cli("render", v, tmp_path / "r2.zarr", *RENDER)[0] == 0
+    assert svgen_cli("blend", v, tmp_path / "b.zarr", "--config", "tiny", "--workers", "0")[0] == 0
+    assert svgen_cli("export", r, tmp_path / "x", "--format", "png")[0] == 0
+    assert call(svtrain, "svtrain", ["fit", "--store", r, "--out", tmp_path / "run", *FIT])[0] == 0
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", tmp_path / "run", "--store", r, "--out",
+                                          r / "eval"])
+    assert code == 2 and "lies inside input" in err, err
+    assert call(svtrain, "svtrain", ["eval", "--checkpoint", tmp_path / "run", "--store", r])[0] == 0
+    assert (tree_digest(v), tree_digest(r)) == before
+
+
+def test_eval_finds_the_training_store_from_another_directory(project, tmp_path, monkeypatch):
+    monkeypatch.chdir(project)
+    code, err = call(svtrain, "svtrain", ["fit", "--store", "data/r.zarr", "--out", "runs/a", *FIT])
+    assert code == 0, err
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", project / "runs" / "a", "--store",
+                                          project / "data" / "r.zarr", "--out", "e1"])
+    assert code == 0, err
+    # the run moved without its store: one line saying what eval needs, and --train-store gives it
+    shutil.copytree(project / "runs" / "a", elsewhere / "moved")
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--store", project / "data" / "r.zarr",
+                                          "--out", "e2"])
+    assert code == 2 and "eval needs the run's training store" in err and "--train-store" in err, err
+    assert err.count("\n") == 1
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--store", project / "data" / "r.zarr",
+                                          "--train-store", project / "data" / "r.zarr", "--out", "e3"])
+    assert code == 0, err
