@@ -45,7 +45,7 @@ import torch.nn.functional as F  # noqa: E402
 from materials import registry  # noqa: E402
 from pipeline.render.scene import FlashScene, scene_constants  # noqa: E402
 from pipeline.render.views import draw_view, planes_of, svbrdf_of, transform_planes  # noqa: E402
-from pipeline.seeds import rng_for  # noqa: E402
+from svcore.seeds import rng_for  # noqa: E402
 from train.render import flash_render  # noqa: E402
 from train.synthetic import pack  # noqa: E402
 

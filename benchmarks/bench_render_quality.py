@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT))
 from materials import registry  # noqa: E402
 from pipeline.render.scene import FlashScene, scene_constants  # noqa: E402
 from pipeline.render.views import draw_view, planes_of, transform_planes  # noqa: E402
-from pipeline.seeds import rng_for  # noqa: E402
+from svcore.seeds import rng_for  # noqa: E402
 
 import drjit as dr  # noqa: E402
 

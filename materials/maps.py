@@ -5,12 +5,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from svcore.errors import SvgenError
+
 #: channels per map, in the canonical order used by stores and the network.
 MAP_CHANNELS: dict[str, int] = {"normal": 3, "diffuse": 3, "specular": 3, "roughness": 1}
 MAP_NAMES: tuple[str, ...] = tuple(MAP_CHANNELS)
 
 
-class InvalidMaps(ValueError):
+class InvalidMaps(SvgenError, ValueError):
     """Maps that break the conventions (shape, range, finiteness, unit normals)."""
 
 

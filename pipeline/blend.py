@@ -21,10 +21,10 @@ from materials.maps import normalize
 from materials.noise import fbm
 
 from .config import BlendConfig, as_dict
-from .errors import ConfigError
-from .log import get_logger
+from svcore.errors import ConfigError
+from svcore.log import get_logger
 from .parallel import run_chunks
-from .seeds import derive_seed
+from svcore.seeds import derive_seed
 from .store import ArraySpec, StoreWriter, write_chunk
 from .svbrdf_store import SVBRDFStore, encode_maps, map_specs
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, TypeVar
 
-from .errors import ConfigError
+from svcore.errors import ConfigError
 
 T = TypeVar("T")
 

@@ -11,9 +11,9 @@ import os
 from contextlib import contextmanager
 from typing import Callable, Iterable
 
-from .errors import ConfigError
-from .log import get_logger
-from .progress import progress
+from svcore.errors import ConfigError
+from svcore.log import get_logger
+from svcore.progress import progress
 
 log = get_logger(__name__)
 

@@ -20,10 +20,10 @@ from scipy.stats import truncnorm
 import materials
 
 from .config import SampleConfig, as_dict
-from .errors import ConfigError
-from .log import get_logger
+from svcore.errors import ConfigError
+from svcore.log import get_logger
 from .parallel import run_chunks
-from .seeds import derive_seed
+from svcore.seeds import derive_seed
 from .store import ArraySpec, StoreWriter, write_chunk
 from .svbrdf_store import encode_maps, map_specs
 

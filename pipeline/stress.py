@@ -112,7 +112,7 @@ def decorrelated(rng, size):
 def make(name: str, rng: np.random.Generator, size: int) -> tuple[SVBRDF, dict]:
     """One sample of category ``name`` (validated maps, view overrides)."""
     if name not in CATEGORIES:
-        from .errors import ConfigError
+        from svcore.errors import ConfigError
 
         raise ConfigError(f"unknown stress category {name!r}; known: {', '.join(CATEGORIES)}")
     m, over = CATEGORIES[name](rng, size)
@@ -152,9 +152,9 @@ def run_stress(out, per_category: int, size: int, seed: int, categories: tuple[s
     import functools
     import zlib
 
-    from .errors import ConfigError
+    from svcore.errors import ConfigError
     from .parallel import run_chunks
-    from .seeds import derive_seed
+    from svcore.seeds import derive_seed
     from .store import ArraySpec, StoreWriter
     from .svbrdf_store import map_specs
 

@@ -25,7 +25,8 @@ import numpy as np
 
 from materials.maps import MAP_CHANNELS, MAP_NAMES, SVBRDF, encode_normal, normalize
 
-from .errors import StoreError
+from svcore.errors import StoreError
+
 from .store import ArraySpec, ChunkCache, open_store, read_region
 
 KINDS = ("variants", "blends", "stress")

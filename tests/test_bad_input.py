@@ -11,7 +11,8 @@ import pytest
 import zarr
 from PIL import Image
 
-from pipeline.cli import cli, run_cli
+from pipeline.cli import cli
+from svcore.cli import run_cli
 from train.cli import svtrain
 
 SMALL = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",

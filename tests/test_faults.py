@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 
 from conftest import tree_digest
-from pipeline.cli import cli, run_cli
+from pipeline.cli import cli
+from svcore.cli import run_cli
 from pipeline.config import SampleConfig, build
 from pipeline.render.stage import RenderConfig, run_render
 from pipeline.sample import run_sample

@@ -12,7 +12,7 @@ import pytest
 
 from conftest import tree_digest
 from pipeline.config import SampleConfig, build
-from pipeline.errors import StoreError
+from svcore.errors import StoreError
 from pipeline.render.store import RendersReader
 from pipeline.sample import run_sample
 from pipeline.store import DONE_DIR, partial_path

@@ -1,5 +1,5 @@
 """The ``svtrain`` command line: ``fit``, ``eval``, ``predict``. Thin wrappers over the modules;
-user errors print one line through :func:`pipeline.cli.run_cli`."""
+user errors print one line through :func:`svcore.cli.run_cli`."""
 from __future__ import annotations
 
 import json
@@ -8,8 +8,8 @@ from pathlib import Path
 
 import click
 
-from pipeline.cli import run_cli
-from pipeline.log import configure, get_logger
+from svcore.cli import run_cli, version_option
+from svcore.log import configure, get_logger
 
 log = get_logger(__name__)
 
@@ -18,6 +18,7 @@ DEFAULT_RUN = "runs/train"
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("-v", "--verbose", is_flag=True, help="Debug logging.")
+@version_option("svtrain")
 def svtrain(verbose: bool) -> None:
     """svtrain: train and use the single-image SVBRDF capture network."""
     configure(verbose)

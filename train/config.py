@@ -2,7 +2,7 @@
 
 ``resolve(preset, params_file, overrides)`` builds a :class:`Config` as
 preset < ``train:`` section of params.yaml < ``key.sub=value`` overrides, and rejects unknown keys
-and out-of-range values with :class:`pipeline.errors.ConfigError` (one line on the CLI).
+and out-of-range values with :class:`svcore.errors.ConfigError` (one line on the CLI).
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from typing import Any
 
 import yaml
 
-from pipeline.errors import ConfigError
+from svcore.errors import ConfigError
 
 
 #: learning-rate schedules of OptimConfig.schedule (train.fit.lr_at).

@@ -17,8 +17,8 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset, Sampler
 
-from pipeline.errors import StoreError
-from pipeline.seeds import rng_for
+from svcore.errors import StoreError
+from svcore.seeds import rng_for
 
 
 class Source(Protocol):

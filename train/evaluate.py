@@ -23,7 +23,7 @@ from typing import Callable
 import numpy as np
 import torch
 
-from pipeline.errors import ConfigError
+from svcore.errors import ConfigError
 
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .config import Config

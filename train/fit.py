@@ -19,10 +19,10 @@ import numpy as np
 import torch
 import yaml
 
-from pipeline.errors import ConfigError, SvgenError
-from pipeline.log import get_logger
-from pipeline.progress import progress
-from pipeline.seeds import derive_seed
+from svcore.errors import ConfigError, SvgenError
+from svcore.log import get_logger
+from svcore.progress import progress
+from svcore.seeds import derive_seed
 
 from . import checkpoint
 from .config import Config, OptimConfig

@@ -15,7 +15,7 @@ import torch
 from torch.nn import functional as F
 
 from materials.maps import SVBRDF
-from pipeline.seeds import rng_for
+from svcore.seeds import rng_for
 
 from .render import flash_render
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import PRESETS, as_dict
-from ..errors import ConfigError, StoreError
-from ..log import get_logger
+from svcore.errors import ConfigError, StoreError
+from svcore.log import get_logger
 from ..parallel import run_chunks
 from ..store import StoreWriter, write_chunk
 from materials.maps import MAP_NAMES
@@ -110,7 +110,7 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
 def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], cfg: RenderConfig, n: int) -> int:
     """Worker: render the SVBRDFs of chunk c and write the whole chunk. Returns the number of views."""
     from ..svbrdf_store import SVBRDFInputs, decode_maps
-    from .bsdf import dr
+    from ..mi_env import dr
 
     dr.set_thread_count(max(1, threads))
     if inputs not in _INPUTS:  # opening the stores costs ~6 ms each: once per worker process

@@ -30,8 +30,10 @@ import numpy as np
 
 from materials.maps import SVBRDF
 
-from ..seeds import rng_for
-from .bsdf import CHANNELS, dr, mi, pack_maps
+from svcore.seeds import rng_for
+
+from ..mi_env import dr, mi
+from .bsdf import CHANNELS, pack_maps
 
 R_MIN, R_MAX = 0.1, 0.7
 ZOOM_MIN, ZOOM_MAX = 0.7, 1.4
