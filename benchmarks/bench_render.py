@@ -34,13 +34,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from materials import registry  # noqa: E402
-from pipeline.config import SampleConfig, build  # noqa: E402
+from pipeline.config import RenderConfig, SampleConfig  # noqa: E402
 from pipeline.render.encoding import decode_srgb8  # noqa: E402
 from pipeline.render.scene import FlashScene  # noqa: E402
-from pipeline.render.stage import RenderConfig, run_render  # noqa: E402
+from pipeline.render.stage import run_render  # noqa: E402
 from pipeline.render.store import RendersReader  # noqa: E402
 from pipeline.render.views import planes_of, transform_planes  # noqa: E402
 from pipeline.sample import run_sample  # noqa: E402
+from svcore.config import build  # noqa: E402
 
 PAPER_CPU_S_PER_VIEW = 11.5  # 16 h on 40 CPUs for ~200,000 views (DESIGN.md)
 PAPER_BYTES_PER_VIEW = 425_000  # 85 GB of PNGs for ~200,000 288^2 samples

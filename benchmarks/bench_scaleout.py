@@ -47,9 +47,10 @@ def _render(inp: Path, out: Path, extra: list[str]) -> float:
 
 def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
     """views/s with the cluster already running: chunk tasks only (first task per worker excluded)."""
-    from pipeline.config import build
+    from svcore.config import build
     from pipeline.parallel import dask_client, run_chunks
-    from pipeline.render.stage import RenderConfig, chunk_task, render_writer
+    from pipeline.config import RenderConfig
+    from pipeline.render.stage import chunk_task, render_writer
 
     cfg = build(RenderConfig)
     writer, n = render_writer(inp, out, cfg)
@@ -67,7 +68,8 @@ def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
 
 
 def main() -> None:
-    from pipeline.config import SampleConfig, build
+    from pipeline.config import SampleConfig
+    from svcore.config import build
     from pipeline.sample import run_sample
 
     import materials

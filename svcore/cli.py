@@ -93,3 +93,121 @@ def run_cli(group: click.Group, prog: str, argv=None) -> int:
         click.echo(f"{prog}: internal error: {type(e).__name__}: {one_line(e)} (set SVGEN_DEBUG=1 for the traceback)",
                    err=True)
         return 1
+
+
+# -- configuration on the command line ---------------------------------------------------------------------
+class ConfigCommand(click.Command):
+    """A click command whose ``--help`` ends with every key of its config (settable by ``--set`` and params.yaml):
+    type, default of the default preset, and the field's documentation."""
+
+    config_cls = None
+
+    def format_epilog(self, ctx, formatter) -> None:
+        from .config import PRESET_KEY, keys, preset_values, type_name
+
+        cls = self.config_cls
+        defaults = preset_values(cls)
+        rows = [(k, f"({type_name(ann)}, default {show(defaults.get(k))}) {doc}") for k, ann, _, doc in keys(cls)]
+        rows.insert(0, (PRESET_KEY, f"(one of {', '.join(cls.PRESETS)}, default {cls.DEFAULT_PRESET!r}) the named "
+                                    "preset the other keys start from"))
+        with formatter.section(f"Config keys (--set KEY=VALUE, or section '{cls.SECTION}' of a --params file)"):
+            formatter.write_dl(rows)
+        super().format_epilog(ctx, formatter)
+
+
+def show(value) -> str:
+    """A default as params.yaml spells it (true, null, 0.25, [a, b])."""
+    import yaml
+
+    return yaml.safe_dump(value, default_flow_style=True, width=1 << 16).strip().removesuffix("...").strip()
+
+
+def _click_type(ann):
+    import typing
+
+    from .config import _unwrap
+
+    ann = _unwrap(ann)
+    if typing.get_origin(ann) is typing.Literal:
+        return click.Choice([str(a) for a in typing.get_args(ann)]), False
+    if typing.get_origin(ann) in (tuple, list):
+        return _click_type(typing.get_args(ann)[0])[0], True
+    return {int: click.INT, float: click.FLOAT, str: click.STRING, bool: click.BOOL}.get(ann, click.STRING), False
+
+
+def _param(key: str) -> str:
+    return "cfg__" + key.replace(".", "__")
+
+
+def config_command(cls, flags: dict[str, str], **command_kw):
+    """Decorator: a click command configured by ``cls``.
+
+    Adds ``--config-preset``, ``--params FILE``, ``--set KEY=VALUE`` (repeatable), ``--print-config``, and one
+    flag per entry of ``flags`` (dotted config key -> flag spelling, e.g. ``{"per_preset": "--per-preset"}``;
+    a bool key may be spelled ``"--on/--off"``), each with the field's documentation as help. The command
+    function receives ``cfg`` (the resolved config) instead of these options; ``--print-config`` prints it as
+    params.yaml YAML and exits 0 before the command runs.
+    """
+    from .config import PRESET_FLAG, field, preset_values
+
+    def deco(fn):
+        import functools
+
+        defaults = preset_values(cls)
+
+        @functools.wraps(fn)
+        def wrapper(*args, **kw):
+            return fn(*args, cfg=config_from_cli(cls, kw), **kw)
+
+        f = wrapper
+        for key, flag in reversed(list(flags.items())):
+            info = field(cls, key)
+            typ, multiple = _click_type(info.annotation)
+            doc = " ".join((info.description or "").split())
+            if "/" in flag:  # a boolean switch pair
+                f = click.option(flag, _param(key), default=None,
+                                 help=f"{doc} [config key {key}; default: {show(defaults[key])}]")(f)
+            elif multiple:
+                f = click.option(flag, _param(key), type=typ, multiple=True,
+                                 help=f"{doc} Repeatable. [config key {key}]")(f)
+            else:
+                f = click.option(flag, _param(key), type=typ, default=None,
+                                 help=f"{doc} [config key {key}; default: {show(defaults[key])}]")(f)
+        f = click.option("--print-config", is_flag=True,
+                         help=f"Print the resolved config as a '{cls.SECTION}:' params.yaml section and exit.")(f)
+        f = click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+                         help="Set any config key listed below (YAML value; repeatable). Flags override it.")(f)
+        f = click.option("--params", "params_file", type=click.Path(dir_okay=False), default=None,
+                         help=f"A params.yaml whose '{cls.SECTION}' section sets the config (--set and flags "
+                              "override it).")(f)
+        f = click.option(PRESET_FLAG, "config_preset", type=click.Choice(list(cls.PRESETS)), default=None,
+                         help=f"Named config preset the other values start from [default: {cls.DEFAULT_PRESET}].")(f)
+        cmd = click.command(cls=ConfigCommand, **command_kw)(f)
+        cmd.config_cls = cls
+        return cmd
+
+    return deco
+
+
+def config_from_cli(cls, kw: dict):
+    """Pop the config options of :func:`config_command` from ``kw`` and resolve them (``--print-config`` exits)."""
+    import yaml
+
+    from .config import parse_sets, resolve
+
+    flags = {}
+    for name in [k for k in kw if k.startswith("cfg__")]:
+        val = kw.pop(name)
+        flags[name[5:].replace("__", ".")] = (tuple(val) or None) if isinstance(val, tuple) else val
+    cfg = resolve(cls, kw.pop("config_preset"), kw.pop("params_file"), parse_sets(kw.pop("sets")), flags)
+    if kw.pop("print_config"):
+        click.echo(yaml.safe_dump({cls.SECTION: cfg.as_dict()}, sort_keys=False), nl=False)
+        raise click.exceptions.Exit(0)
+    return cfg
+
+
+def require(**args) -> None:
+    """Positional arguments left optional so that ``--print-config`` works without them: check them here."""
+    for name, val in args.items():
+        if val is None or val == ():
+            raise click.UsageError(f"Missing argument '{name.upper()}'.")

@@ -135,7 +135,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
     Returns:
         the metrics dict (also in metrics.json).
     """
-    cfg.validate()
+    cfg.check()
     o = cfg.optim
     # open the data first: a bad store must fail before the run directory exists
     src = source if source is not None else open_source(cfg.data)
