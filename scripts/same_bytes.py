@@ -1,7 +1,8 @@
 """Hash the bytes of a tiny end-to-end run (sample, blend, stress, render, fit) to prove a refactor changes none.
 
-Runs the real command lines (``svgen``/``svtrain`` console scripts of the importable tree) into a temporary
-directory and writes ``{store: {array: sha256}, "fit": {tensor: sha256}}`` as JSON. Only flags that mean the
+Runs the real command lines (``svgen``/``svtrain`` of the importable tree) into a temporary directory and
+writes ``{store: {array: sha256}, "fit": {tensor: sha256}, ...}`` as JSON: the four stores, two tiny fits (on
+the renders store and on the synthetic source) and the synthetic source itself. Only flags that mean the
 same before and after the #13 restructuring are used (no config-preset flag), so the same script runs on both
 sides. Attributes are left out on purpose: they may gain fields; the arrays and the state dict must not change.
 
@@ -65,8 +66,27 @@ def run(tmp: Path) -> dict:
     _run([*SVTRAIN, "fit", "--store", str(r), "--out", str(tmp / "run"), "--iterations", "4", "--batch-size", "2",
           "--seed", "13", "--workers", "0", "--no-compile", "--set", "model.levels=3", "--set", "data.crop=16",
           "--set", "data.holdout=0.3"])
+    _run([*SVTRAIN, "fit", "--out", str(tmp / "run_synthetic"), "--iterations", "3", "--batch-size", "2",
+          "--seed", "19", "--workers", "0", "--no-compile", "--set", "model.levels=3", "--set", "data.crop=16",
+          "--set", "data.synthetic_samples=8", "--set", "data.synthetic_size=24", "--set",
+          "data.synthetic_materials=4", "--set", "data.holdout=0.5"])
     return {"variants": store_hashes(v), "blends": store_hashes(b), "stress": store_hashes(s),
-            "renders": store_hashes(r), "fit": state_hashes(tmp / "run" / "model.pt")}
+            "renders": store_hashes(r), "fit": state_hashes(tmp / "run" / "model.pt"),
+            "fit_synthetic": state_hashes(tmp / "run_synthetic" / "model.pt"),
+            **{f"synthetic_{kind}": synthetic_hashes(kind) for kind in ("simple", "presets")}}
+
+
+def synthetic_hashes(kind: str) -> dict[str, str]:
+    """sha256 of the in-memory synthetic training source (its seed streams are not in any store)."""
+    import numpy as np
+
+    from train.synthetic import SyntheticSource
+
+    src = SyntheticSource(4, 64 if kind == "presets" else 32, 2, seed=17, kind=kind)  # presets: 64 at least
+    arrays = {"image": np.stack([src.image(i) for i in range(len(src))]),
+              "maps": np.stack([src.packed(i) for i in range(len(src))]), "light": np.asarray(src.light)}
+    return {k: f"{a.dtype}{list(a.shape)}:" + hashlib.sha256(np.ascontiguousarray(a).tobytes()).hexdigest()
+            for k, a in arrays.items()}
 
 
 def diff(a: dict, b: dict) -> list[str]:
