@@ -18,7 +18,7 @@ import torch
 from torch.utils.data import DataLoader, Dataset, Sampler
 
 from svcore.errors import StoreError
-from svcore.seeds import rng_for
+from svcore.seeds import stream_rng
 
 
 class Source(Protocol):
@@ -68,7 +68,7 @@ def split_by_source(src: Source, holdout: float, seed: int = 0) -> tuple[np.ndar
     names = sorted({n for t in ids for n in t})
     if len(names) < 2:
         raise StoreError(f"the held-out split needs at least 2 source presets, the source has {len(names)}")
-    rng = rng_for(seed, "eval", 0)
+    rng = stream_rng(seed, "split.holdout")
     n_test = min(len(names) - 1, max(1, int(round(holdout * len(names)))))
     test = set(rng.permutation(names)[:n_test].tolist())
     train_idx = [i for i, t in enumerate(ids) if not any(n in test for n in t)]
@@ -150,13 +150,13 @@ class PairDataset(Dataset):
         n = len(self.indices)
         epoch = pos // n
         if epoch != self._perm_epoch:
-            self._perm = rng_for(self.seed, "train", 5, epoch).permutation(n)
+            self._perm = stream_rng(self.seed, "train.epoch_order", epoch).permutation(n)
             self._perm_epoch = epoch
         return int(self.indices[self._perm[pos % n]])
 
     def __getitem__(self, pos: int) -> tuple[torch.Tensor, torch.Tensor]:
         i = self.index_of(int(pos))
-        rng = rng_for(self.seed, "train", 6, int(pos)) if self.train else None
+        rng = stream_rng(self.seed, "train.augment", int(pos)) if self.train else None
         crop = getattr(self.src, "crop", None)
         if crop is not None:
             # the store transforms only the window's pixels (4x less work for 256 -> 128 crops)

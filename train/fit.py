@@ -22,7 +22,7 @@ import yaml
 from svcore.errors import ConfigError, SvgenError
 from svcore.log import get_logger
 from svcore.progress import progress
-from svcore.seeds import derive_seed
+from svcore.seeds import stream_seed
 
 from . import checkpoint
 from .config import Config, OptimConfig
@@ -33,18 +33,14 @@ from .net import SVBRDFNet, count_parameters
 log = get_logger(__name__)
 
 
-def _seeded(seed: int, key: int) -> int:
-    return derive_seed(seed, "train", 100 + key)
-
-
 def build(cfg: Config) -> tuple[SVBRDFNet, torch.optim.Optimizer, torch.Generator]:
     """Fresh model (seeded init), Adam, and the loss-configuration generator."""
     o = cfg.optim
-    torch.manual_seed(_seeded(o.seed, 0))
+    torch.manual_seed(stream_seed(o.seed, "train.init"))
     model = SVBRDFNet(cfg.model)
     opt = torch.optim.Adam(model.parameters(), lr=o.lr, betas=(o.beta1, o.beta2))
-    gen = torch.Generator().manual_seed(_seeded(o.seed, 1))
-    torch.manual_seed(_seeded(o.seed, 2))  # the dropout stream
+    gen = torch.Generator().manual_seed(stream_seed(o.seed, "train.loss_configs"))
+    torch.manual_seed(stream_seed(o.seed, "train.dropout"))
     return model, opt, gen
 
 
@@ -177,7 +173,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
             # A dedicated loader generator: DataLoader otherwise draws its base seed from torch's global
             # RNG, which would shift the dropout stream between an uninterrupted and a resumed run.
             loader = make_loader(ds, o.batch_size, start, stop, cfg.data.workers)
-            loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
+            loader.generator = torch.Generator().manual_seed(stream_seed(o.seed, "train.loader"))
             for image, maps in loader:
                 loss, _ = train_step(model, opt, loss_fn, image, maps, gen, o, step)
                 if not math.isfinite(loss):  # the weights are now non-finite too: keep the last good checkpoint
