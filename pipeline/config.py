@@ -113,8 +113,8 @@ class RenderConfig(StageConfig):
     res: int = Field(256, ge=16, le=2048)
     """Render resolution (square, 16..2048); the paper renders 288 and crops 256 at training time."""
     spp: int = Field(1, ge=1)
-    """Samples per pixel (benchmarks/bench_render_quality.py: 1 pixel-centre sample is within 0.2 % RMSE of a
-    converged sphere-light reference)."""
+    """Samples per pixel (1 pixel-centre sample against a converged sphere-light reference:
+    benchmarks/bench_render_quality.py, results in benchmarks/results/render_quality.json)."""
     light: LightModel = "point"
     """Flash model: point, or sphere (radius 0.02, the paper's light)."""
     sampler: Sampler = "centre"
