@@ -9,7 +9,7 @@ from scipy import stats
 import materials
 from conftest import tree_digest
 from pipeline.blend import MIN_NZ, blend_normals, mask
-from pipeline.config import BlendConfig, SampleConfig
+from pipeline.config import SampleConfig
 from pipeline.sample import perturb, plan
 from pipeline.svbrdf_store import SVBRDFStore
 from svcore.config import build
