@@ -19,7 +19,6 @@ from materials.maps import normalize
 from materials.noise import fbm
 
 from svcore.errors import ConfigError
-from svcore.log import get_logger
 from svcore.seeds import derive_seed
 
 from .config import BlendConfig
@@ -27,7 +26,6 @@ from .runner import Stage
 from .store import write_chunk
 from .svbrdf_store import SVBRDFStore, array_specs, encode_maps
 
-log = get_logger(__name__)
 
 MIN_NZ = 1e-3  # slopes of normals flatter than this are clamped: keeps n/n_z finite
 MASK_EDGE = 0.35  # soft edge of mask transitions, in standard deviations of the mask noise

@@ -19,7 +19,6 @@ from scipy.stats import truncnorm
 import materials
 
 from svcore.errors import ConfigError
-from svcore.log import get_logger
 from svcore.seeds import derive_seed
 
 from .config import SampleConfig
@@ -27,7 +26,6 @@ from .runner import Stage
 from .store import write_chunk
 from .svbrdf_store import array_specs, encode_maps
 
-log = get_logger(__name__)
 
 
 @dataclass(frozen=True)

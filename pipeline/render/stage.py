@@ -13,13 +13,10 @@ import numpy as np
 
 from materials.maps import MAP_NAMES
 from svcore.errors import StoreError
-from svcore.log import get_logger
 
 from ..config import RenderConfig
 from ..runner import Stage
 from ..store import StoreWriter, write_chunk
-
-log = get_logger(__name__)
 
 _SCENES: dict[tuple, object] = {}
 _INPUTS: dict[str, SVBRDFStore] = {}
