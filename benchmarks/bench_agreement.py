@@ -47,7 +47,7 @@ from pipeline.render.scene import FlashScene, scene_constants  # noqa: E402
 from pipeline.render.views import draw_view, planes_of, svbrdf_of, transform_planes  # noqa: E402
 from pipeline.seeds import rng_for  # noqa: E402
 from train.render import flash_render  # noqa: E402
-from train.synthetic import pack  # noqa: E402
+from materials.maps import pack_maps  # noqa: E402
 
 import drjit as dr  # noqa: E402
 
@@ -72,7 +72,7 @@ def timed(f, reps: int):
 
 def torch_images(maps, view, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Torch renders of screen-space maps: (pixel centres, pixel integral over a k x k grid), clipped, (H, W, 3)."""
-    x = torch.from_numpy(pack(maps)).permute(2, 0, 1)[None]
+    x = torch.from_numpy(pack_maps(maps)).permute(2, 0, 1)[None]
     light = torch.tensor([view.light_x, view.light_y])
     with torch.no_grad():
         centre = flash_render(x, light)
@@ -102,7 +102,7 @@ def main(argv=None) -> int:
         planes = transform_planes(planes_of(base), BASE, view, res)
         maps = svbrdf_of(planes, res)
         (centre, integral), t_cpu, t_wall = timed(lambda: torch_images(maps, view, SUPERSAMPLE), 1)
-        _, tc_cpu, tc_wall = timed(lambda: flash_render(torch.from_numpy(pack(maps)).permute(2, 0, 1)[None],
+        _, tc_cpu, tc_wall = timed(lambda: flash_render(torch.from_numpy(pack_maps(maps)).permute(2, 0, 1)[None],
                                                         torch.tensor([view.light_x, view.light_y])), reps)
         cases.append({"material": name, "view": view, "planes": planes, "torch_centre": centre,
                       "torch_integral": integral, "torch_cpu_s": tc_cpu, "torch_wall_s": tc_wall,

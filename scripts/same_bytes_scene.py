@@ -108,8 +108,8 @@ def torch_brdf() -> dict:
 def numpy_reference() -> dict:
     from materials.maps import SVBRDF, normalize
 
-    design_brdf = _first("materials.reference:design_brdf", "pipeline.render.reference:design_brdf")
-    render_point_flash = _first("materials.reference:render_point_flash",
+    design_brdf = _first("materials.brdf_reference:design_brdf", "pipeline.render.reference:design_brdf")
+    render_point_flash = _first("materials.brdf_reference:render_point_flash",
                                 "pipeline.render.reference:render_point_flash")
     rng = np.random.default_rng(13)
     n = normalize(np.concatenate([0.4 * rng.standard_normal((32, 32, 2)), np.ones((32, 32, 1))], -1))
@@ -119,8 +119,9 @@ def numpy_reference() -> dict:
     l = normalize(rng.standard_normal((64, 3)) * [1, 1, 0] + [0, 0, 1.5]).astype(np.float64)
     f = design_brdf(np.array([0.0, 0.0, 1.0]), v, l, rng.random((64, 3)), rng.random((64, 3)),
                     rng.random((64, 1)) ** 2)
-    d = 1.0 / np.tan(np.radians(25.0))
-    img, spread = render_point_flash(maps, (0.2, -0.3), np.pi * d * d, d, subsamples=2, return_spread=True)
+    d = _first("materials.capture:CAMERA_DISTANCE", "train.render:CAMERA_DISTANCE")
+    intensity = _first("materials.capture:FLASH_INTENSITY", "train.render:FLASH_INTENSITY")
+    img, spread = render_point_flash(maps, (0.2, -0.3), intensity, d, subsamples=2, return_spread=True)
     return {"design_brdf": _h(f), "render_point_flash": _h(img), "render_point_flash_spread": _h(spread)}
 
 
