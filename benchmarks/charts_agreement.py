@@ -13,9 +13,10 @@ import json
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_JSON = ROOT / "benchmarks" / "results" / "agreement.json"
-DEFAULT_PNG = ROOT / "docs" / "img" / "chart_agreement.png"
+from harness import IMG, RESULTS, pyplot
+
+DEFAULT_JSON = RESULTS / "agreement.json"
+DEFAULT_PNG = IMG / "chart_agreement.png"
 
 
 def chart_agreement(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PNG) -> Path:
@@ -30,9 +31,7 @@ def chart_agreement(json_path: str | Path = DEFAULT_JSON, png_path: str | Path =
     """
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     data = json.loads(Path(json_path).read_text())
     rows = data["settings"]
     by = {s: sorted((r for r in rows if r["sampler"] == s), key=lambda r: r["spp"]) for s in ("independent", "centre")}

@@ -4,7 +4,7 @@ Run from the repository root, before and after a change, and compare the two JSO
 
     python3 scripts/same_bytes_scene.py scripts/same_bytes_scene_before.json
     python3 scripts/same_bytes_scene.py scripts/same_bytes_scene_after.json
-    python3 scripts/same_bytes_scene.py --compare scripts/same_bytes_scene_before.json scripts/same_bytes_scene_after.json
+    python3 scripts/same_bytes_scene.py --compare scripts/same_bytes_scene_{before,after}.json
 
 It hashes (sha256 of the raw array bytes):
   * every array of a tiny variants store (``svgen sample``) and of two tiny renders stores (``svgen render``:

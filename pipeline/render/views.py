@@ -12,7 +12,8 @@ View distribution (:func:`draw_view`), all independent:
   radius sqrt(U(R_MIN^2, R_MAX^2)) (uniform over the annulus; ``materials.capture.LIGHT_R_MIN``, ``LIGHT_R_MAX``),
   angle U(0, 2 pi). For a flat mirror the highlight is at the midpoint (x/2, y/2) of camera and light, so
   R_MAX = 0.7 keeps its centre within 0.35 of the image centre (the middle ~35 % of the half-width).
-  R_MIN = 0.1 keeps a sphere flash (radius <= 0.05) off the camera's frustum (a sphere at lateral offset rho blocks camera rays unless rho > ~1.5 radius).
+  R_MIN = 0.1 keeps a sphere flash (radius <= 0.05) off the camera's frustum (a sphere at lateral offset rho
+  blocks camera rays unless rho > ~1.5 radius).
 * zoom: tiles of the base map across the picture width, log-uniform in [ZOOM_MIN, ZOOM_MAX] = [0.7, 1.4]
   (mild magnification to mild minification; minified views are box-prefiltered by supersampling).
   The transform runs as one drjit kernel (numpy fancy-index gathers took ~40 ms per 256^2 view here, the
