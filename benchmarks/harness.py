@@ -19,6 +19,7 @@ import importlib.util
 import json
 import os
 import platform
+import shlex
 import statistics
 import subprocess
 import sys
@@ -126,7 +127,7 @@ def command() -> str:
         script = script.relative_to(ROOT)
     except ValueError:
         pass
-    return " ".join(["python3", str(script), *sys.argv[1:]])
+    return shlex.join(["python3", str(script), *sys.argv[1:]])
 
 
 def write_results(path: str | os.PathLike, result: dict, note: str | None = None) -> Path:
