@@ -17,7 +17,7 @@ import json
 import sys
 from pathlib import Path
 
-from harness import IMG, RESULTS, ROOT, parser, pyplot, write_csv
+from harness import IMG, RESULTS, ROOT, parser, pyplot, save_figure, write_csv
 
 plt = pyplot()
 CSV = RESULTS  # --out sends the PNGs and CSVs into one folder
@@ -100,11 +100,7 @@ def _external(module: str, func: str, json_name: str, png: str) -> Path | None:
 
 
 def _save(fig, name: str) -> Path:
-    IMG.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(IMG / name, dpi=110)
-    plt.close(fig)
-    return IMG / name
+    return save_figure(fig, IMG / name, dpi=110)
 
 
 def main(argv=None) -> int:

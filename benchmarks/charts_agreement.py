@@ -13,7 +13,7 @@ import json
 import sys
 from pathlib import Path
 
-from harness import IMG, RESULTS, pyplot
+from harness import IMG, RESULTS, pyplot, save_figure
 
 DEFAULT_JSON = RESULTS / "agreement.json"
 DEFAULT_PNG = IMG / "chart_agreement.png"
@@ -78,12 +78,7 @@ def chart_agreement(json_path: str | Path = DEFAULT_JSON, png_path: str | Path =
     bx.set_title("error against render time")
     bx.legend(fontsize=7)
     bx.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    png = Path(png_path)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
-    return png
+    return save_figure(fig, png_path, dpi=120)
 
 
 if __name__ == "__main__":

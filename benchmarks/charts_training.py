@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from harness import IMG, RESULTS, pyplot
+from harness import IMG, RESULTS, pyplot, save_figure
 
 DEFAULT_JSON = RESULTS / "train_budget.json"
 DEFAULT_PNG = IMG / "chart_training.png"
@@ -53,12 +53,7 @@ def plot(json_path=DEFAULT_JSON, png_path=DEFAULT_PNG) -> Path:
     ax.grid(alpha=0.3)
     ax.set_xlim(left=0)
     ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
-    fig.tight_layout()
-    png = Path(png_path)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(png)
-    plt.close(fig)
-    return png
+    return save_figure(fig, png_path)
 
 
 if __name__ == "__main__":
