@@ -3,7 +3,7 @@
 One home for them: the Mitsuba scene and BSDF plugin (``pipeline/render/scene.py``, ``bsdf.py``), the torch
 renderer of the loss (``train/render.py``, ``train/brdf.py``), the numpy reference
 (:mod:`materials.brdf_reference`) and the catalogue's contact sheet all import these names; none restates
-them. numpy-free and import-free on purpose, so that every layer (materials -> pipeline -> train) can use it.
+them. It imports only ``math``, so that every layer (materials -> pipeline -> train) can use it.
 
 Geometry: the 2 x 2 material plane at z = 0 fills a pinhole camera at (0, 0, D) looking down -z with a
 ``FOV_DEG`` field of view, so D = 1 / tan(FOV / 2). The flash is a small light in the plane z = D at an offset
