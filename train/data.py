@@ -17,6 +17,7 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset, Sampler
 
+from materials.maps import pack_maps
 from svcore.errors import StoreError
 from svcore.seeds import stream_rng
 
@@ -32,8 +33,7 @@ def packed_maps(src: Source, i: int) -> np.ndarray:
     """(H, W, 10) packed maps of sample i (normal, diffuse, specular, roughness)."""
     if hasattr(src, "packed"):
         return src.packed(i)
-    m = src.maps(i)
-    return np.concatenate([m.normal, m.diffuse, m.specular, m.roughness], -1).astype(np.float32)
+    return pack_maps(src.maps(i))
 
 
 def preset_ids(src_entry: Any) -> tuple[str, ...]:
@@ -166,7 +166,7 @@ class PairDataset(Dataset):
             y0, x0 = ((h - self.crop) // 2,) * 2 if rng is None else tuple(int(rng.integers(0, h - self.crop + 1))
                                                                             for _ in range(2))
             img, m = crop(i, y0, x0, self.crop)
-            mp = np.concatenate([m.normal, m.diffuse, m.specular, m.roughness], -1)
+            mp = pack_maps(m)
         else:
             img, mp = np.asarray(self.src.image(i), np.float32), packed_maps(self.src, i)
         img, mp = augment(img, mp, rng, self.crop, self.flips)

@@ -14,25 +14,11 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from materials.maps import SVBRDF
+from materials.capture import LIGHT_R_MAX, LIGHT_R_MIN
+from materials.maps import SVBRDF, pack_maps, unpack_maps
 from svcore.seeds import stream_rng
 
 from .render import flash_render
-
-#: flash offset radius range of the render stage's views (pipeline/render/views.py R_MIN, R_MAX).
-LIGHT_R_MIN, LIGHT_R_MAX = 0.1, 0.7
-
-
-def pack(m: SVBRDF) -> np.ndarray:
-    """SVBRDF -> (H, W, 10) float32 in packed channel order (normal, diffuse, specular, roughness)."""
-    return np.concatenate([m.normal, m.diffuse, m.specular, m.roughness], -1).astype(np.float32)
-
-
-def unpack(a: np.ndarray) -> SVBRDF:
-    """(H, W, 10) packed array -> SVBRDF."""
-    a = np.asarray(a, np.float32)
-    return SVBRDF(normal=a[..., 0:3], diffuse=a[..., 3:6], specular=a[..., 6:9], roughness=a[..., 9:10])
-
 
 def _field(rng: np.random.Generator, size: int, cells: int, ch: int) -> np.ndarray:
     """Smooth random field (ch, size, size) in about [-1, 1]: bicubic upsampling of a coarse grid."""
@@ -105,7 +91,7 @@ class SyntheticSource:
                     svb = self._presets[m].generate(None, self.size, stream_rng(self.seed, "synthetic.preset_maps", i).integers(2**31))
                 else:
                     svb = simple_maps(m, i, self.size, self.seed)
-                self._maps[i] = pack(svb)
+                self._maps[i] = pack_maps(svb)
                 rng = stream_rng(self.seed, "synthetic.light", i)
                 rho = math.sqrt(rng.uniform(LIGHT_R_MIN ** 2, LIGHT_R_MAX ** 2))
                 phi = rng.uniform(0.0, 2.0 * math.pi)
@@ -125,7 +111,7 @@ class SyntheticSource:
 
     def maps(self, i: int) -> SVBRDF:
         """The aligned maps of sample i."""
-        return unpack(self._maps[i])
+        return unpack_maps(self._maps[i])
 
     def packed(self, i: int) -> np.ndarray:
         """(H, W, 10) packed maps (fast path used by the dataset)."""
