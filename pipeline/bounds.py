@@ -8,8 +8,9 @@ deliberately generous to the user: they refuse only what certainly cannot fit.
   arrays, stacks them into one buffer and zarr holds the compressed copy; zarr allocates a whole chunk even for
   the short last one) must fit in the available memory;
 * local workers: ``workers x (WORKER_BYTES + task bytes)`` must fit in the available memory;
-* disk: the store's raw size divided by MAX_COMPRESSION must fit in the free space of the output's file system;
-* seeds: integers in [0, 2^64 - 1] everywhere (:func:`check_seed`).
+* disk: the store's raw size divided by MAX_COMPRESSION must fit in the free space of the output's file system.
+
+(Seeds, integers in [0, 2^64), are a field rule of the configs: ``Field(ge=0, lt=2 ** 64)``.)
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import math
 import os
 from pathlib import Path
 
-from .errors import ConfigError
+from svcore.errors import ConfigError
 
 #: peak bytes per chunk task relative to the chunk's raw bytes (arrays assembled, stacked, compressed copy).
 TASK_FACTOR = 3
@@ -27,7 +28,6 @@ WORKER_BYTES = 200 << 20
 #: the best zstd ratio a store could reach (uniform maps compress far better than real ones; real variants stores
 #: compress ~2-4x): a store needs at least raw / MAX_COMPRESSION bytes of disk.
 MAX_COMPRESSION = 64
-MAX_SEED = 2**64 - 1
 
 GiB = float(1 << 30)
 
@@ -54,13 +54,6 @@ def sample_bytes(arrays) -> int:
     import numpy as np
 
     return sum(math.prod(a.shape) * np.dtype(a.dtype).itemsize for a in arrays.values())
-
-
-def check_seed(seed, name: str = "seed") -> int:
-    """A seed is an integer in [0, 2^64 - 1] (booleans are not seeds). Returns it."""
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
-        raise ConfigError(f"{name} must be a non-negative integer below 2^64, got {seed!r}")
-    return seed
 
 
 def check_store_size(out, n: int, chunk: int, arrays) -> int:

@@ -49,7 +49,8 @@ import numpy as np
 import zarr
 from zarr.codecs import Crc32cCodec, ZstdCodec
 
-from .errors import StoreError
+from svcore.errors import StoreError
+from svcore.versions import library_versions
 
 SCHEMA_VERSION = 2  # 2: chunk manifest (svgen_manifest.json) written at finalize
 MANIFEST = "svgen_manifest.json"
@@ -85,19 +86,6 @@ class ArraySpec:
 def config_hash(config: dict) -> str:
     """Stable hash of a JSON-able configuration (used to match a resumed run to its partial store)."""
     return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:16]
-
-
-def library_versions() -> dict[str, str]:
-    """Versions of the libraries that shape the bytes of a store."""
-    import importlib.metadata as md
-
-    out = {}
-    for pkg in ("svgen", "numpy", "zarr", "dask", "mitsuba", "drjit", "colour-science", "torch"):
-        try:
-            out[pkg] = md.version(pkg)
-        except md.PackageNotFoundError:
-            pass
-    return out
 
 
 def partial_path(path: str | os.PathLike) -> Path:

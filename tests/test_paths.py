@@ -14,7 +14,7 @@ from pipeline.store import partial_path
 from test_bad_input import call
 from train.cli import svtrain
 
-RENDER = ["--config", "tiny", "--views", "1", "--res", "16", "--chunk", "1", "--workers", "0"]
+RENDER = ["--config-preset", "tiny", "--views", "1", "--res", "16", "--chunk", "1", "--workers", "0"]
 FIT = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
        "--set", "data.crop=16", "--set", "data.holdout=0.5", "--set", "optim.batch_size=1",
        "--workers", "0", "--no-compile", "--iterations", "1"]
@@ -27,7 +27,7 @@ def project(tmp_path_factory):
 
     d = tmp_path_factory.mktemp("project")
     (d / "data").mkdir()
-    code, err = call(cli, "svgen", ["sample", d / "data" / "v.zarr", "--config", "tiny", "--per-preset", "2",
+    code, err = call(cli, "svgen", ["sample", d / "data" / "v.zarr", "--config-preset", "tiny", "--per-preset", "2",
                                     "--chunk", "1", "--workers", "0", "--preset", "paint/glossy_red",
                                     "--preset", "wood/oak_planks"])
     assert code == 0, err
@@ -38,7 +38,7 @@ def project(tmp_path_factory):
 
 def test_absolute_and_relative_input_spellings_give_identical_bytes(project, tmp_path, monkeypatch, svgen_cli):
     monkeypatch.chdir(project)
-    for cmd in (["render", *RENDER], ["blend", "--config", "tiny", "--workers", "0"]):
+    for cmd in (["render", *RENDER], ["blend", "--config-preset", "tiny", "--workers", "0"]):
         code, err = svgen_cli(cmd[0], "data/v.zarr", tmp_path / "rel" / "o.zarr", *cmd[1:])
         assert code == 0, err
         code, err = svgen_cli(cmd[0], project / "data" / ".." / "data" / "v.zarr", tmp_path / "abs" / "o.zarr",
@@ -69,7 +69,7 @@ def test_no_command_writes_into_or_modifies_its_input(project, tmp_path, svgen_c
     v, r = project / "data" / "v.zarr", project / "data" / "r.zarr"
     before = tree_digest(v), tree_digest(r)
     refused = [("render", v, v / "out.zarr", *RENDER), ("render", v, v.parent / "." / "v.zarr" / "x", *RENDER),
-               ("blend", v, v / "b.zarr", "--config", "tiny"), ("export", r, r / "png")]
+               ("blend", v, v / "b.zarr", "--config-preset", "tiny"), ("export", r, r / "png")]
     for args in refused:
         code, err = svgen_cli(*args)
         assert code == 2 and "lies inside input" in err, (args, err)
@@ -78,7 +78,7 @@ def test_no_command_writes_into_or_modifies_its_input(project, tmp_path, svgen_c
         assert code == 2 and "lies inside input" in err, (args, err)
     # and the commands that succeed leave their inputs byte-identical
     assert svgen_cli("render", v, tmp_path / "r2.zarr", *RENDER)[0] == 0
-    assert svgen_cli("blend", v, tmp_path / "b.zarr", "--config", "tiny", "--workers", "0")[0] == 0
+    assert svgen_cli("blend", v, tmp_path / "b.zarr", "--config-preset", "tiny", "--workers", "0")[0] == 0
     assert svgen_cli("export", r, tmp_path / "x", "--format", "png")[0] == 0
     assert call(svtrain, "svtrain", ["fit", "--store", r, "--out", tmp_path / "run", *FIT])[0] == 0
     code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", tmp_path / "run", "--store", r, "--out",

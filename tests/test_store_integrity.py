@@ -12,11 +12,11 @@ import pytest
 import zarr
 
 from conftest import tree_digest
-from pipeline.errors import StoreError
+from svcore.errors import StoreError
 from pipeline.store import MANIFEST, open_store, partial_path, verify_store
 from train.cli import svtrain
 
-SAMPLE = ["sample", "--config", "tiny", "--per-preset", "2", "--chunk", "1", "--workers", "0",
+SAMPLE = ["sample", "--config-preset", "tiny", "--per-preset", "2", "--chunk", "1", "--workers", "0",
           "--preset", "paint/glossy_red", "--preset", "wood/oak_planks"]
 SMALL_FIT = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
              "--set", "data.crop=16", "--set", "data.holdout=0.5", "--set", "optim.batch_size=1",
@@ -32,7 +32,7 @@ def stores(tmp_path_factory):
     d = tmp_path_factory.mktemp("integrity")
     code, err = call(cli, "svgen", [SAMPLE[0], d / "v.zarr", *SAMPLE[1:]])
     assert code == 0, err
-    code, err = call(cli, "svgen", ["render", d / "v.zarr", d / "r.zarr", "--config", "tiny", "--views", "1",
+    code, err = call(cli, "svgen", ["render", d / "v.zarr", d / "r.zarr", "--config-preset", "tiny", "--views", "1",
                                     "--res", "16", "--chunk", "1", "--workers", "0"])
     assert code == 0, err
     return d
@@ -51,9 +51,9 @@ def _damaged(stores, tmp_path, name, array, chunk):
 @pytest.mark.parametrize("array", ["diffuse", "roughness", "seed", "normal"])
 def test_every_svbrdf_reader_refuses_a_store_with_a_missing_chunk(stores, tmp_path, array, svgen_cli):
     v = _damaged(stores, tmp_path, "v.zarr", array, 2)
-    for args in (["render", v, tmp_path / "r.zarr", "--config", "tiny", "--views", "1", "--res", "16",
+    for args in (["render", v, tmp_path / "r.zarr", "--config-preset", "tiny", "--views", "1", "--res", "16",
                   "--workers", "0"],
-                 ["blend", v, tmp_path / "b.zarr", "--config", "tiny", "--workers", "0"]):
+                 ["blend", v, tmp_path / "b.zarr", "--config-preset", "tiny", "--workers", "0"]):
         code, err = svgen_cli(*args)
         assert code == 2, err
         assert f"array '{array}' is missing chunk 2 (samples 2:3)" in err and err.count("\n") == 1, err
@@ -109,7 +109,7 @@ def test_a_store_without_manifest_is_refused_with_a_recreate_line(stores, tmp_pa
 def test_a_partial_directory_given_as_input_gets_a_clear_line(stores, tmp_path, svgen_cli):
     p = tmp_path / "v.zarr.partial"
     shutil.copytree(stores / "v.zarr", p)
-    code, err = svgen_cli("render", p, tmp_path / "r.zarr", "--config", "tiny", "--workers", "0")
+    code, err = svgen_cli("render", p, tmp_path / "r.zarr", "--config-preset", "tiny", "--workers", "0")
     assert code == 2 and "is an unfinished store" in err and "rerun its command to resume" in err, err
 
 

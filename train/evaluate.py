@@ -15,7 +15,6 @@ split of the training store.
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 from typing import Callable
@@ -23,8 +22,8 @@ from typing import Callable
 import numpy as np
 import torch
 
-from pipeline.errors import ConfigError
 from pipeline.store import refuse_inside
+from svcore.errors import ConfigError
 
 from . import runinfo
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
@@ -48,7 +47,7 @@ def register_suite(name: str, fn: Callable) -> None:
 
 
 def _heldout(cfg: Config, store: str | None):
-    data = dataclasses.replace(cfg.data, store=store) if store else cfg.data
+    data = cfg.data.model_copy(update={"store": store}) if store else cfg.data
     src = open_source(data)
     _, test = split_by_source(src, cfg.data.holdout, cfg.optim.seed)
     return {"heldout": (src, test)}
@@ -57,7 +56,7 @@ def _heldout(cfg: Config, store: str | None):
 def _stress(cfg: Config, store: str | None):
     if not store:
         raise ConfigError("--suite stress needs --store: a renders store of `svgen stress` sets")
-    src = open_source(dataclasses.replace(cfg.data, store=store))
+    src = open_source(cfg.data.model_copy(update={"store": store}))
     cats = getattr(src, "categories_of_views", lambda: [])()
     names = [c for c in dict.fromkeys(cats) if c is not None]
     if not names:
@@ -239,8 +238,8 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     if suite not in SUITES:
         raise ConfigError(f"unknown eval suite {suite!r}; known: {', '.join(sorted(SUITES))}")
     model, cfg = load_model(checkpoint_path)
-    cfg = dataclasses.replace(cfg, data=dataclasses.replace(
-        cfg.data, store=runinfo.train_store(checkpoint_path, cfg.data.store, train_store)))
+    cfg = cfg.model_copy(update={"data": cfg.data.model_copy(
+        update={"store": runinfo.train_store(checkpoint_path, cfg.data.store, train_store)})})
     refuse_inside(out_dir, [s for s in (store, cfg.data.store) if s])
     groups = SUITES[suite](cfg, store)
     train_src = open_source(cfg.data)  # baseline means: the training split of the training store

@@ -11,7 +11,7 @@ import json
 import os
 from pathlib import Path
 
-from pipeline.errors import StoreError
+from svcore.errors import StoreError
 
 RUN_FILE = "run.json"
 
@@ -73,7 +73,7 @@ def check_run(cfg, out_dir: str | os.PathLike, n_train: int) -> None:
         ConfigError / StoreError: one line naming the limit.
     """
     from pipeline.bounds import available_memory
-    from pipeline.errors import ConfigError
+    from svcore.errors import ConfigError
     from pipeline.store import refuse_inside
 
     refuse_inside(out_dir, cfg.data.store)
