@@ -338,11 +338,16 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
     tmp.write_text(json.dumps(record, sort_keys=True))
     os.replace(tmp, marker)
     _kill_hook("chunk")
+    if os.environ.get("SVGEN_TEST_ENOSPC_AFTER_CHUNK") == str(c):  # a full disk where no small one can be mounted
+        import errno
+
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(Path(partial) / DONE_DIR))
 
 
 def _kill_hook(moment: str) -> None:
     """Tests kill a real run at a chosen moment: ``SVGEN_TEST_KILL_AT=create`` (the store is created, not yet
-    renamed) or ``chunk`` (right after the first chunk's marker). Unset in normal use: does nothing."""
+    renamed) or ``chunk`` (right after the first chunk's marker). Unset in normal use: does nothing.
+    (``SVGEN_TEST_ENOSPC_AFTER_CHUNK=c`` makes the worker that wrote chunk c fail as a full disk does.)"""
     if os.environ.get("SVGEN_TEST_KILL_AT") == moment:
         import signal
 
