@@ -122,6 +122,7 @@ def test_stress_categories_have_their_defining_properties(seed):
         assert not got[name][1], name
 
 
+@pytest.mark.slow  # inductor compiles C++ for the loss renderer: ~100 s on 2 shared cores
 def test_the_compiled_loss_equals_the_eager_one(rng):
     """torch.compile of the loss renderer is the default of `svtrain fit`; every other test turns it off."""
     from train.loss import make_loss
