@@ -300,7 +300,8 @@ class StoreWriter:
                 manifest["arrays"][name][c] = rec[name]
         meta = dict(g.attrs)
         meta.update(attrs or {})
-        meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST}
+        # a partial started by an older svgen (schema 1, "ok" markers) gets its manifest here, hence schema 2
+        meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST, "schema_version": SCHEMA_VERSION}
         g.attrs.put(meta)
         shutil.rmtree(self.partial / DONE_DIR)
         # zarr's LocalStore writes each chunk to "<key>.<uuid hex>.partial" and renames it: a kill mid-write leaves
