@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import os
+import warnings
 from contextlib import contextmanager
 from typing import Callable, Iterable
 
@@ -40,6 +41,8 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
     import dask
     from distributed import Client, LocalCluster
 
+    # another cluster on this machine holds the default dashboard port: distributed warns on stderr and moves on
+    warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
     if not log.isEnabledFor(logging.DEBUG):  # distributed sets its loggers to INFO when imported
         for name in ("distributed", "distributed.nanny", "distributed.scheduler", "distributed.core"):
             logging.getLogger(name).setLevel(logging.WARNING)
@@ -61,8 +64,10 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
         raise ConfigError(f"--workers must be >= 1 for a local cluster, got {workers}")
     # daemon=False: worker processes may start their own pools (drjit threads, torch loaders)
     with dask.config.set({"distributed.worker.daemon": False}):
+        # a failing task's exception reaches the client (fut.result() re-raises it, and the CLI prints one line);
+        # the workers' own "Compute Failed" report of it (5 lines at ERROR) is shown only with --verbose
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
+                               silence_logs=logging.ERROR if log.isEnabledFor(logging.DEBUG) else logging.CRITICAL)
         try:
             with Client(cluster) as client:
                 yield client

@@ -288,7 +288,8 @@ class StoreWriter:
                 manifest["arrays"][name][c] = rec[name]
         meta = dict(g.attrs)
         meta.update(attrs or {})
-        meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST}
+        # a partial started by an older svgen (schema 1, "ok" markers) gets its manifest here, hence schema 2
+        meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST, "schema_version": SCHEMA_VERSION}
         g.attrs.put(meta)
         shutil.rmtree(self.partial / DONE_DIR)
         # zarr's LocalStore writes each chunk to "<key>.<uuid hex>.partial" and renames it: a kill mid-write leaves
@@ -326,11 +327,16 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
     tmp.write_text(json.dumps(record, sort_keys=True))
     os.replace(tmp, marker)
     _kill_hook("chunk")
+    if os.environ.get("SVGEN_TEST_ENOSPC_AFTER_CHUNK") == str(c):  # a full disk where no small one can be mounted
+        import errno
+
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(Path(partial) / DONE_DIR))
 
 
 def _kill_hook(moment: str) -> None:
     """Tests kill a real run at a chosen moment: ``SVGEN_TEST_KILL_AT=create`` (the store is created, not yet
-    renamed) or ``chunk`` (right after the first chunk's marker). Unset in normal use: does nothing."""
+    renamed) or ``chunk`` (right after the first chunk's marker). Unset in normal use: does nothing.
+    (``SVGEN_TEST_ENOSPC_AFTER_CHUNK=c`` makes the worker that wrote chunk c fail as a full disk does.)"""
     if os.environ.get("SVGEN_TEST_KILL_AT") == moment:
         import signal
 

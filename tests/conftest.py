@@ -64,3 +64,17 @@ def material_presets():
     from materials import presets
 
     return presets()
+
+
+
+def chunk_stats(store, chunks, array, ndim):
+    """chunk id -> (inode, mtime) of the chunk file of ``array`` (``ndim`` dimensions) for each of ``chunks``.
+
+    zarr writes a chunk to a temp file and renames it, so a chunk written again has a new inode: what a resume
+    test compares to prove that finished chunks were kept, not redone (equal bytes alone prove only determinism).
+    """
+    out = {}
+    for c in chunks:
+        st = (Path(store) / array / "c" / str(c) / "/".join(["0"] * (ndim - 1))).stat()
+        out[c] = (st.st_ino, st.st_mtime_ns)
+    return out

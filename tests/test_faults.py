@@ -3,6 +3,9 @@ full disk gives one clear line, leaves no complete-looking store, and keeps earl
 from __future__ import annotations
 
 import contextlib
+import os
+import sys
+import warnings
 import io
 import shutil
 import subprocess
@@ -75,7 +78,13 @@ def small_disk():
     r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(mnt)], capture_output=True, text=True)
     if r.returncode != 0:
         mnt.rmdir()
-        pytest.skip(f"cannot mount a small tmpfs here: {r.stderr.strip()}")
+        # loud: CI can mount, so there a failure to mount fails; elsewhere a warning in the summary, and
+        # test_full_disk_through_dask_workers_is_one_line_and_resumes covers the message without a mount
+        msg = f"cannot mount a small tmpfs here: {r.stderr.strip()}"
+        if os.environ.get("CI"):
+            pytest.fail(msg)
+        warnings.warn(f"test_full_disk_is_one_line_and_keeps_earlier_outputs SKIPPED: {msg}")
+        pytest.skip(msg)
     try:
         yield mnt
     finally:
@@ -89,9 +98,27 @@ def test_full_disk_is_one_line_and_keeps_earlier_outputs(small_disk):
                      "--workers", "0")
     assert code == 0, err
     before = tree_digest(first)
-    big = small_disk / "big.zarr"  # 51 presets x 2 variants of 256^2 uint16 maps: far more than 3 MiB
-    code, err = call("sample", big, "--size", "256", "--per-preset", "2", "--chunk", "2", "--workers", "0")
+    # 51 presets x 2 variants of 128^2 uint16 maps: ~11 MB compressed, far more than 3 MiB, yet above the up-front
+    # disk bound (raw / 64 = 0.5 MB), so the run starts and meets the full disk
+    big = small_disk / "big.zarr"
+    code, err = call("sample", big, "--size", "128", "--per-preset", "2", "--chunk", "2", "--workers", "0")
     assert code != 0 and err.count("\n") == 1 and "Traceback" not in err, err
     assert "No space left on device" in err and "resumes" in err, err
     assert not big.exists()  # a partial store may stay (to resume); a complete-looking one never
     assert tree_digest(first) == before
+
+
+def test_full_disk_through_dask_workers_is_one_line_and_resumes(tmp_path):
+    """ENOSPC raised in a dask worker (injected after chunk 1: no small disk needs mounting) reaches the user as
+    svgen's one line, without the workers' 5-line "Compute Failed" report; the rerun resumes."""
+    out = tmp_path / "v.zarr"
+    cmd = [sys.executable, "-c", "from pipeline.cli import main; main()", "sample", str(out), "--config-preset", "tiny",
+           "--per-preset", "1", "--chunk", "1", "--workers", "1", "--preset", PRESETS[0], "--preset", PRESETS[1]]
+    env = {**os.environ, "SVGEN_NO_PROGRESS": "1", "SVGEN_TEST_ENOSPC_AFTER_CHUNK": "1"}
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    assert r.returncode == 1 and "No space left on device" in r.stderr and "resumes" in r.stderr, r.stderr
+    assert r.stderr.count("\n") == 1 and "Compute Failed" not in r.stderr, r.stderr
+    assert not out.exists()
+    env.pop("SVGEN_TEST_ENOSPC_AFTER_CHUNK")
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr

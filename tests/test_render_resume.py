@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from conftest import tree_digest
+from conftest import chunk_stats, tree_digest
 from pipeline.config import SampleConfig
 from pipeline.render.store import RendersReader
 from pipeline.sample import run_sample
@@ -64,10 +64,13 @@ def test_sigkill_then_rerun_matches_uninterrupted_run(variants, reference, tmp_p
     assert not out.exists()
     with pytest.raises(StoreError, match="incomplete"):
         RendersReader(out)
+    finished = sorted(int(m.name) for m in done.iterdir())
+    kept = chunk_stats(partial_path(out), finished, "image", 5)
     r = subprocess.run(_svgen(variants, out, "--workers", "0"), capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
     assert tree_digest(out) == tree_digest(reference)
     assert not partial_path(out).exists()
+    assert chunk_stats(out, finished, "image", 5) == kept, "the rerun rewrote chunks finished before the kill"
 
 
 def test_a_second_run_on_the_same_output_is_refused(variants, tmp_path):

@@ -53,7 +53,7 @@ def test_identity_view_returns_the_base_maps():
         np.testing.assert_allclose(getattr(out, k), getattr(base, k), atol=2e-7)
 
 
-@settings(max_examples=12, deadline=None)
+@settings(max_examples=12, deadline=None, derandomize=True)  # CI draws the same examples every run
 @given(zoom=st.floats(V.ZOOM_MIN, V.ZOOM_MAX), rotation=st.floats(0, 2 * math.pi),
        su=st.floats(0, 1), sv=st.floats(0, 1), res=st.sampled_from([32, 48, 64]))
 def test_drjit_transform_matches_numpy_reference(zoom, rotation, su, sv, res):

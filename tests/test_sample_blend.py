@@ -109,7 +109,7 @@ unit_normal = st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(1e-3, 1)).
     lambda v: np.array(v, np.float32) / np.linalg.norm(v))
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200, deadline=None, derandomize=True)  # CI draws the same examples every run
 @given(unit_normal, unit_normal, st.floats(0, 1))
 def test_blended_normals_are_unit_with_positive_z_and_keep_endpoints(a, b, w):
     assume(a[2] > 2 * MIN_NZ)  # flatter normals are clamped on purpose (finite slopes)

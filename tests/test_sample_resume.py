@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from conftest import tree_digest
+from conftest import chunk_stats, tree_digest
 from svcore.errors import StoreError
 from pipeline.store import DONE_DIR, open_store, partial_path
 
@@ -40,6 +40,9 @@ def test_sigkill_then_rerun_matches_uninterrupted_run(tmp_path):
     with pytest.raises(StoreError, match="incomplete"):
         open_store(out, "variants")
 
+    finished = sorted(int(m.name) for m in done.iterdir())
+    kept = chunk_stats(partial_path(out), finished, "diffuse", 4)
     r = subprocess.run(_svgen(out), capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert tree_digest(out) == tree_digest(ref)
+    assert chunk_stats(out, finished, "diffuse", 4) == kept, "the rerun rewrote chunks finished before the kill"

@@ -141,3 +141,23 @@ def test_a_partial_left_between_zarr_json_and_its_attributes_is_restarted(stores
     code, err = svgen_cli(SAMPLE[0], out, *SAMPLE[1:])
     assert code == 0, err
     assert tree_digest(out) == tree_digest(stores / "v.zarr")
+
+
+def test_a_partial_started_by_an_older_svgen_finishes_with_a_manifest(tmp_path):
+    """Markers that say only "ok" and schema 1: the resumed run hashes those chunks at finalize."""
+    import numpy as np
+
+    from pipeline.store import DONE_DIR, ArraySpec, StoreWriter, write_chunk
+
+    arrays = {"x": ArraySpec((2,), "uint16"), "seed": ArraySpec((), "uint64")}
+    out = tmp_path / "s.zarr"
+    with StoreWriter(out, "variants", 4, 2, arrays, {"a": 1}) as w:
+        write_chunk(w.partial, 0, 0, {"x": np.ones((2, 2), np.uint16), "seed": np.arange(2, dtype=np.uint64)})
+        (w.partial / DONE_DIR / "0").write_text("ok")
+        g = zarr.open_group(w.partial, mode="r+")
+        g.attrs["svgen"] = {**g.attrs["svgen"], "schema_version": 1}
+    with StoreWriter(out, "variants", 4, 2, arrays, {"a": 1}) as w:
+        assert w.pending() == [1]
+        write_chunk(w.partial, 1, 2, {"x": np.ones((2, 2), np.uint16), "seed": np.arange(2, 4, dtype=np.uint64)})
+        w.finalize()
+    assert verify_store(out) == 4

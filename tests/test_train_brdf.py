@@ -23,7 +23,7 @@ def _vec(x, y, z):
     return torch.tensor([x, y, z], dtype=torch.float32).reshape(1, 3, 1, 1)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300, deadline=None, derandomize=True)  # CI draws the same examples every run
 @given(nx=coord, ny=coord, nz=coord, lx=coord, ly=coord, lz=coord, vx=coord, vy=coord, vz=coord,
        d=unit, s=unit, r=unit)
 def test_values_and_gradients_finite_at_edges(nx, ny, nz, lx, ly, lz, vx, vy, vz, d, s, r):

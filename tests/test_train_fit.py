@@ -47,13 +47,24 @@ def test_tiny_fit_lowers_loss_on_fixed_batch(src):
 
 @pytest.mark.parametrize("optim", [{"optim.schedule": "constant", "optim.grad_clip": 0.0},
                                    {"optim.schedule": "cosine", "optim.grad_clip": 0.05}], ids=["constant", "cosine_clip"])
-def test_resume_equals_uninterrupted(src, tmp_path, optim):
+def test_resume_equals_uninterrupted(src, tmp_path, optim, monkeypatch):
     cfg = resolve("compact", None, {**TINY, **optim, "optim.iterations": 8})
     full = fit(cfg, tmp_path / "a", source=src)
     fit(cfg, tmp_path / "b", source=src, stop_after=4)  # "interrupted" after 4 steps (checkpoint at 3 and 4)
     ck = torch.load(tmp_path / "b" / "checkpoint.pt", weights_only=False)
     assert ck["step"] == 4
+    import train.fit as fit_module
+
+    steps, real_step = [], fit_module.train_step
+
+    def counted(*args):  # the real step, recording its index: the rerun must start at the checkpoint's step
+        steps.append(args[-1])
+        return real_step(*args)
+
+    monkeypatch.setattr(fit_module, "train_step", counted)
     resumed = fit(cfg, tmp_path / "b", source=src)
+    assert steps == [4, 5, 6, 7], f"the resumed run ran steps {steps}, not 4..7 from its checkpoint"
+    monkeypatch.setattr(fit_module, "train_step", real_step)
     a = torch.load(tmp_path / "a" / "model.pt", weights_only=False)["model"]
     b = torch.load(tmp_path / "b" / "model.pt", weights_only=False)["model"]
     for k in a:
