@@ -3,6 +3,7 @@ user errors print one line through :func:`pipeline.cli.run_cli`."""
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -37,21 +38,41 @@ def svtrain(verbose: bool) -> None:
 @click.option("--out", default=DEFAULT_RUN, show_default=True, help="Run directory.")
 @click.option("--no-resume", is_flag=True, help="Start over even if the run directory has a checkpoint.")
 @click.option("--no-compile", is_flag=True, help="Do not torch.compile the loss renderer.")
-def fit(preset, params_file, overrides, store, iterations, batch_size, seed, workers, out, no_resume, no_compile):
+@click.option("--device", default=None, help="auto (default: CUDA if available, else CPU), cpu, cuda, cuda:N or mps.")
+@click.option("--precision", default=None, help="fp32 (default), bf16 or fp16 (GPU only) for the network.")
+@click.option("--nproc", type=int, default=None, help="Data-parallel processes on this machine (torch.distributed).")
+@click.option("--global-batch", type=int, default=None,
+              help="Samples per step over all processes (default: --batch-size x processes).")
+def fit(preset, params_file, overrides, store, iterations, batch_size, seed, workers, out, no_resume, no_compile,
+        device, precision, nproc, global_batch):
     """Train the network (resumes from OUT/checkpoint.pt after an interruption)."""
     from .config import parse_overrides, resolve
     from .fit import fit as run_fit
 
     ov = parse_overrides(list(overrides))
     for key, val in (("data.store", store), ("optim.iterations", iterations), ("optim.batch_size", batch_size),
-                     ("optim.seed", seed), ("data.workers", workers)):
+                     ("optim.seed", seed), ("data.workers", workers), ("compute.device", device),
+                     ("compute.precision", precision), ("compute.nproc", nproc),
+                     ("compute.global_batch", global_batch)):
         if val is not None:
             ov[key] = val
     if no_compile:
         ov["optim.compile_loss"] = False
     cfg = resolve(preset, params_file, ov)
-    metrics = run_fit(cfg, out, resume=not no_resume)
-    click.echo(json.dumps(metrics))
+    from . import distributed
+
+    if distributed.world_from_env().size == 1 and cfg.compute.nproc > 1:
+        distributed.launch_checked(cfg, out, resume=not no_resume)
+        click.echo(json.dumps(json.loads(Path(out, "metrics.json").read_text())))
+        return
+    try:
+        metrics = run_fit(cfg, out, resume=not no_resume)
+    except distributed.SvgenError as e:
+        if distributed.report_to_launcher(e):  # svtrain's launcher prints one line for the whole run
+            raise click.exceptions.Exit(e.exit_code)
+        raise
+    if distributed.world_from_env().main and not os.environ.get(distributed.ERROR_DIR_ENV):
+        click.echo(json.dumps(metrics))  # (under svtrain's own launcher, the launcher prints it)
 
 
 @svtrain.command("eval")

@@ -113,6 +113,23 @@ class OptimConfig:
 
 
 @dataclass
+class ComputeConfig:
+    """Where and how wide training runs (train/device.py, train/distributed.py; README "Training on GPUs")."""
+
+    device: str = "auto"
+    """auto (CUDA when available, else CPU), cpu, cuda, cuda:N or mps; under --nproc each process takes
+    cuda:LOCAL_RANK."""
+    precision: str = "fp32"
+    """fp32, bf16 or fp16 (autocast on the network; the loss renderer stays float32; fp16 is refused on the CPU)."""
+    nproc: int = 1
+    """data-parallel processes on this machine, launched by torch.distributed's elastic launcher (gloo on CPU,
+    NCCL on CUDA); under torchrun the launcher's world size is used instead."""
+    global_batch: int = 0
+    """samples per step over all processes; 0 = optim.batch_size x world size. optim.lr is used as given (no
+    automatic scaling): when the global batch grows k-fold, scale optim.lr yourself, by sqrt(k) for Adam."""
+
+
+@dataclass
 class Config:
     """Everything ``svtrain fit`` needs."""
 
@@ -124,6 +141,8 @@ class Config:
     """data source and augmentation."""
     optim: OptimConfig = field(default_factory=OptimConfig)
     """optimiser and schedule."""
+    compute: ComputeConfig = field(default_factory=ComputeConfig)
+    """device, precision, data-parallel width."""
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -149,6 +168,8 @@ class Config:
             (o.normal_l2 >= 0, "optim.normal_l2 must be >= 0 (0 = off)"),
             (o.schedule in SCHEDULES, f"optim.schedule must be one of {', '.join(SCHEDULES)}"),
             (0.0 <= o.lr_final <= 1.0, "optim.lr_final must be in [0, 1]"),
+            (self.compute.nproc >= 1, f"compute.nproc (--nproc) must be >= 1, got {self.compute.nproc}"),
+            (self.compute.global_batch >= 0, "compute.global_batch (--global-batch) must be >= 0 (0 = batch x world)"),
         ]
         for ok, msg in checks:
             if not ok:
