@@ -81,12 +81,13 @@ def fit(preset, params_file, overrides, store, iterations, batch_size, seed, wor
 @click.option("--store", default=None, help="Evaluate on this renders store instead of the training one.")
 @click.option("--limit", type=int, default=None, help="Evaluate at most this many samples.")
 @click.option("--out", default=None, help="Output directory (default: the run directory).")
-def eval_(ckpt, suite, store, limit, out):
+@click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
+def eval_(ckpt, suite, store, limit, out, device):
     """RMSE per map and of re-renderings, beside the baselines (eval.json, eval.md)."""
     from .evaluate import markdown, run_eval
 
     out = out or (ckpt if Path(ckpt).is_dir() else str(Path(ckpt).parent))
-    res = run_eval(ckpt, out, suite=suite, store=store, limit=limit)
+    res = run_eval(ckpt, out, suite=suite, store=store, limit=limit, device=device)
     click.echo(markdown(res), nl=False)
 
 
