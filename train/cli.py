@@ -92,16 +92,31 @@ def eval_(ckpt, suite, store, limit, out, device):
 
 
 @svtrain.command()
-@click.argument("photo", type=click.Path(dir_okay=False))
+@click.argument("photos", nargs=-1, required=True, type=click.Path())
 @click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True, help="Run directory or checkpoint file.")
-@click.option("--out", default=None, help="Output directory (default: <photo name>_maps beside the photo).")
-def predict(photo, ckpt, out):
-    """Estimate normal, diffuse, roughness and specular maps from one flash PHOTO (PNG/JPEG sRGB, EXR linear)."""
-    from .predict import predict as run_predict
+@click.option("--out", default=None, help="Output folder: the maps of a single photo, or one sub-folder per photo "
+              "(default: <photo name>_maps beside each photo, <folder>_maps for a folder).")
+@click.option("--size", type=int, default=256, show_default=True,
+              help="Prediction size: a multiple of the network's stride (2^levels); the paper captures at 256.")
+@click.option("--input-space", type=click.Choice(["auto", "srgb", "linear"]), default="auto", show_default=True,
+              help="auto: PNG/JPEG are sRGB, EXR linear. The 2018 paper's PNG data are linear: use linear for them.")
+@click.option("--batch", "batch_size", type=int, default=8, show_default=True, help="Photos per network call.")
+@click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
+def predict(photos, ckpt, out, size, input_space, batch_size, device):
+    """Estimate normal, diffuse, roughness and specular maps from flash PHOTOS (files or folders; PNG/JPEG/EXR)."""
+    from pipeline.errors import SvgenError
 
-    out = out or str(Path(photo).with_name(Path(photo).stem + "_maps"))
-    for p in run_predict(photo, ckpt, out):
-        click.echo(str(p))
+    from .predict import predict_many
+
+    res = predict_many(list(photos), ckpt, out, size, input_space, batch_size, device)
+    for d in res.written:
+        click.echo(str(d))
+    if len(res.failed) == 1 and not res.written:
+        raise SvgenError(res.failed[0][1])
+    if res.failed:
+        listed = "; ".join(f"{p.name}: {why}" for p, why in res.failed)
+        raise SvgenError(f"{len(res.failed)} of {len(res.failed) + len(res.written)} photo(s) could not be read "
+                         f"({len(res.written)} written): {listed}")
 
 
 def main(argv=None) -> None:
