@@ -1,4 +1,5 @@
-"""Data-parallel training on the CPU (gloo, 2 processes, torch's elastic launcher through ``svtrain fit --nproc``).
+"""Data-parallel training on the CPU (gloo, 2 processes, torch's elastic launcher: ``svtrain fit --nproc`` and
+``torchrun -m train.cli fit``).
 
 - equivalence: 2 ranks x batch 4 end with the parameters of 1 process x batch 8 on the same samples;
 - a killed rank stops the run with one line on stderr (no hang), naming the rank and the checkpoint;
@@ -32,8 +33,11 @@ TINY = {"model.base_width": 4, "model.max_width": 8, "model.levels": 3, "model.d
 ATOL, RTOL = 2e-5, 1e-4
 
 
-def svtrain(out: Path, *extra: str, env: dict | None = None) -> subprocess.Popen:
-    args = [sys.executable, "-m", "train.cli", "fit", "--out", str(out), "--nproc", "2", "--batch-size", "4"]
+def svtrain(out: Path, *extra: str, env: dict | None = None, torchrun: bool = False) -> subprocess.Popen:
+    """``svtrain fit --nproc 2`` (svtrain's launcher), or the same workers started by ``torchrun``."""
+    launcher = ["-m", "torch.distributed.run", "--standalone", "--nproc-per-node", "2"] if torchrun else []
+    args = [sys.executable, *launcher, "-m", "train.cli", "fit", "--out", str(out), "--batch-size", "4"]
+    args += [] if torchrun else ["--nproc", "2"]
     for k, v in TINY.items():
         args += ["--set", f"{k}={v}"]
     return subprocess.Popen(args + list(extra), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -51,9 +55,10 @@ def params(run: Path) -> dict[str, torch.Tensor]:
 
 @pytest.fixture(scope="module")
 def ddp_run(tmp_path_factory) -> Path:
-    """An uninterrupted 2-process run (the reference of both tests)."""
+    """An uninterrupted 2-process run started by torchrun (the reference of the tests; the resumed run of svtrain's
+    own launcher must match it bit for bit, so the two routes are one)."""
     d = tmp_path_factory.mktemp("ddp") / "run"
-    code, out, err = finish(svtrain(d))
+    code, out, err = finish(svtrain(d, torchrun=True))
     assert code == 0, err
     m = json.loads(out.strip().splitlines()[-1])
     assert m["world_size"] == 2 and m["global_batch"] == 8 and m["step"] == 6
