@@ -71,6 +71,10 @@ def fit(preset, params_file, overrides, store, iterations, batch_size, seed, wor
         if distributed.report_to_launcher(e):  # svtrain's launcher prints one line for the whole run
             raise click.exceptions.Exit(e.exit_code)
         raise
+    except KeyboardInterrupt:
+        if os.environ.get(distributed.ERROR_DIR_ENV):  # Ctrl-C reached every worker: the launcher reports it
+            raise click.exceptions.Exit(130)
+        raise
     if distributed.world_from_env().main and not os.environ.get(distributed.ERROR_DIR_ENV):
         click.echo(json.dumps(metrics))  # (under svtrain's own launcher, the launcher prints it)
 

@@ -70,6 +70,9 @@ def resolve_device(spec: str, local_rank: int | None = None) -> torch.device:
         raise ConfigError(f"device {spec!r} requested but CUDA is not available ({why}, torch {torch.__version__}); "
                           f"use --device cpu or auto")
     n = torch.cuda.device_count()
+    if index is not None and local_rank is not None:
+        raise ConfigError(f"--device {spec} names one GPU, but data-parallel training gives each process its own "
+                          f"(cuda:LOCAL_RANK): use --device cuda")
     i = int(index) if index is not None else (local_rank or 0)
     if i >= n:
         raise ConfigError(f"device cuda:{i} requested but this machine has {n} CUDA device(s) (0..{n - 1})")

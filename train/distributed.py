@@ -61,6 +61,12 @@ class PeerLost(SvgenError):
     """Another rank of the run died or became unreachable."""
 
 
+class Interrupted(SvgenError):
+    """The launcher was stopped by a signal (Ctrl-C): exit status 130 like an interrupted single process."""
+
+    exit_code = 130
+
+
 @dataclass(frozen=True)
 class World:
     """This process's place in a data-parallel run (a single process: rank 0 of 1).
@@ -227,7 +233,7 @@ def launch_checked(cfg, out: str | Path, resume: bool) -> None:
     from .data import open_source, split_by_source
     from .device import placement
 
-    place = placement(cfg.compute.device, cfg.compute.precision)
+    place = placement(cfg.compute.device, cfg.compute.precision, 0 if cfg.compute.nproc > 1 else None)
     check_world(cfg.compute.nproc, place.device)
     World(0, cfg.compute.nproc).batches(cfg.optim.batch_size, cfg.compute.global_batch)
     split_by_source(open_source(cfg.data), cfg.data.holdout, cfg.optim.seed)
@@ -242,6 +248,7 @@ def launch(cfg, out: str | Path, nproc: int, resume: bool) -> None:
     Raises:
         SvgenError: one line naming the rank that failed first and the checkpoint to resume from.
     """
+    from torch.distributed.elastic.multiprocessing.api import SignalException
     from torch.distributed.elastic.multiprocessing.errors import ChildFailedError
     from torch.distributed.launcher.api import LaunchConfig, elastic_launch
 
@@ -261,17 +268,20 @@ def launch(cfg, out: str | Path, nproc: int, resume: bool) -> None:
             env["OMP_NUM_THREADS"] = "1"  # as torchrun: N processes with all cores each oversubscribe the machine
         old = {k: os.environ.get(k) for k in env}
         os.environ.update(env)
-        quiet = [logging.getLogger(n) for n in ("torch.distributed.elastic", "torch.distributed.launcher",
-                                                 "torch.distributed.run")]
+        # the agent's own warnings would add lines to our one-line error (its loggers set their own levels)
+        quiet = [logging.getLogger(n) for n in list(logging.root.manager.loggerDict)
+                 if n.startswith("torch.distributed")] + [logging.getLogger("torch.distributed")]
         levels = [q.level for q in quiet]
         for q in quiet:
-            q.setLevel(logging.CRITICAL)  # the agent's own warnings would add lines to our one-line error
+            q.setLevel(logging.CRITICAL)
         try:
             elastic_launch(config, entrypoint=sys.executable)(*args)
         except ChildFailedError as e:
             ranked = sorted(_describe(r, f, errors, nproc) + (r,) for r, f in e.failures.items())
             raise SvgenError(f"{ranked[0][1]}; the other ranks were stopped; "
                              f"{last_checkpoint_note(out)}") from None
+        except SignalException as e:  # Ctrl-C / SIGTERM of the launcher: the agent has stopped the workers
+            raise Interrupted(f"stopped by {signal.Signals(e.sigval).name}; {last_checkpoint_note(out)}") from None
         finally:
             for q, lv in zip(quiet, levels):
                 q.setLevel(lv)

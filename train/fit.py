@@ -5,6 +5,10 @@ Resume equivalence: everything random is either a pure function of (seed, step) 
 dropout: torch's global RNG). So stopping at any checkpoint and resuming reproduces the
 uninterrupted run exactly on the same machine and thread count.
 
+Devices and precision come from ``cfg.compute`` (train/device.py); under a data-parallel launcher each process is
+one rank (train/distributed.py) and rank 0 alone writes. :class:`Trainer` is the loop itself: ``fit`` adds
+checkpoints, progress and outputs around it, and the benchmarks iterate the same object.
+
 Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (full state),
 ``model.pt`` (weights + config), ``metrics.json``, ``loss.csv``, ``loss.png``.
 """
