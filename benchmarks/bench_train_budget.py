@@ -10,9 +10,9 @@ The budget becomes a step count before each run (``calibrate_steps``: it/s of a 
 width), because a learning-rate schedule needs ``optim.iterations`` up front. The run is then ``svtrain fit``'s:
 ``train.fit.Trainer`` (seeded init, Adam, loss generator, the step with its schedule and gradient clipping, the
 loader whose batches of step t are a pure function of (seed, t)), iterated exactly as ``svtrain fit`` iterates it,
-so the final point is the model ``svtrain fit`` gives with ``optim.iterations`` = that step count. Evaluation time is not
-counted as training time. The loss compile (torch.compile, one-off, cached on disk) runs before the clock starts;
-whether it is used at all is decided by a short eager-vs-compiled timing of the loss at the start.
+so the final point is the model ``svtrain fit`` gives with ``optim.iterations`` = that step count. Evaluation time
+is not counted as training time. The loss compile (torch.compile, one-off, cached on disk) runs before the clock
+starts; whether it is used at all is decided by a short eager-vs-compiled timing of the loss at the start.
 
 Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/results/eval_budget.md`` (the
 ``--table-width`` model, by default the compact one, after its budget, model vs baselines) and ``docs/img/chart_training.png``

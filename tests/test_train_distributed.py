@@ -123,3 +123,13 @@ def test_other_world_size_resume(ddp_run, tmp_path):
     assert m["resumed_from"] == 6 and m["step"] == 8
     with pytest.raises(ConfigError, match="global batch of 8.*--global-batch 8"):
         fit(resolve("compact", None, {**TINY, "optim.batch_size": 4, "optim.iterations": 10}), run)
+
+
+def test_rank_batches_partition_the_global_batch():
+    """Rank r's positions of step t are the r-th block of the one-process batch: together exactly that batch."""
+    from train.data import StepSampler
+
+    one = list(StepSampler(8, 3, 6))
+    ranks = [list(StepSampler(4, 3, 6, global_batch=8, rank=r)) for r in range(2)]
+    assert [a + b for a, b in zip(*ranks)] == one
+    assert one[0] == list(range(24, 32))

@@ -191,8 +191,8 @@ class Trainer:
         g_old = int(state.get("global_batch", state["config"]["optim"]["batch_size"]))
         n_old = int(state.get("world_size", 1))
         if g_old != self.global_batch:
-            raise ConfigError(f"{where} was trained with a global batch of {g_old} ({n_old} process(es)); this run's is "
-                              f"{self.global_batch} ({self.world.size} x {self.batch}): pass --global-batch {g_old} to "
+            raise ConfigError(f"{where} was trained with a global batch of {g_old} ({n_old} process(es)); this run's "
+                              f"is {self.global_batch} ({self.world.size} x {self.batch}): pass --global-batch {g_old} to "
                               f"continue it, or --no-resume")
         self.net.load_state_dict(state["model"])
         self.opt.load_state_dict(state["optim"])
