@@ -113,6 +113,8 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
     ("fit: zero processes", T, ["fit", "--out", "{d}/o.zarr", "--nproc", "0"], "--nproc) must be >= 1"),
     ("fit: uneven global batch", T, ["fit", "--out", "{d}/o.zarr", "--device", "cpu", "--nproc", "2",
                                      "--global-batch", "5"], "does not split over 2 processes"),
+    ("fit: data-parallel on a missing store", T, ["fit", "--out", "{d}/o.zarr", "--device", "cpu", "--nproc", "2",
+                                                  "--store", "{d}/nothing.zarr"], "does not exist"),
     ("eval: unknown device", T, ["eval", "--checkpoint", "{d}/run", "--device", "gpu0", "--out", "{d}/o.zarr"],
      "unknown device"),
     ("predict: size off the stride", T, ["predict", "{d}/thin.png", "--checkpoint", "{d}/run", "--size", "100",

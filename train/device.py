@@ -17,7 +17,9 @@ Precisions (:data:`PRECISIONS`): ``fp32``; ``bf16`` and ``fp16`` run the *networ
 - the optimiser state and the weights (autocast never changes them; Adam runs in float32).
 
 fp16 needs a gradient scaler (``torch.amp.GradScaler``, on for fp16 only). fp16 on the CPU is *refused*, not
-silently changed: torch's CPU autocast for float16 is slow and without a scaler-tested path; use bf16 there.
+silently changed to something else: CPUs have no fast float16 arithmetic, and bf16 (float32's exponent range, no
+scaler needed) is the CPU's half precision. bf16 on a CPU without native bf16 instructions (AVX512-BF16, AMX) runs,
+but several times slower than fp32 (benchmarks/results/train.json rows).
 """
 from __future__ import annotations
 
