@@ -73,11 +73,13 @@ class World:
 
     Attributes:
         rank: global rank. size: number of processes. local_rank: rank on this machine (picks the GPU).
+        local_size: processes on this machine (what its GPUs must hold).
     """
 
     rank: int = 0
     size: int = 1
     local_rank: int = 0
+    local_size: int = 1
 
     @property
     def main(self) -> bool:
@@ -102,7 +104,8 @@ def world_from_env() -> World:
     size = int(os.environ.get("WORLD_SIZE", "1"))
     if size <= 1:
         return World()
-    return World(int(os.environ["RANK"]), size, int(os.environ.get("LOCAL_RANK", "0")))
+    return World(int(os.environ["RANK"]), size, int(os.environ.get("LOCAL_RANK", "0")),
+                 int(os.environ.get("LOCAL_WORLD_SIZE", str(size))))
 
 
 def check_world(nproc: int, device: torch.device) -> None:

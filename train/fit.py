@@ -267,7 +267,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
     o = cfg.optim
     world = world_from_env()
     place = placement(cfg.compute.device, cfg.compute.precision, world.local_rank if world.size > 1 else None)
-    check_world(world.size, place.device)
+    check_world(world.local_size, place.device)  # per machine: a cluster has more processes than one machine's GPUs
     world.batches(o.batch_size, cfg.compute.global_batch)  # an uneven global batch fails before anything is written
     # open the data first: a bad store must fail before the run directory exists
     src = source if source is not None else open_source(cfg.data)
