@@ -3,8 +3,8 @@ rendering loss included), the loader's samples/s, and how many loader workers a 
 
     python3 benchmarks/bench_train.py                                   # compact, cpu, fp32 (the README figure)
     python3 benchmarks/bench_train.py --precision bf16
-    python3 benchmarks/bench_train.py --preset paper --steps 2 --no-compile --loader-store build
-    python3 benchmarks/bench_train.py --preset paper --device cuda --precision bf16 --steps 50   # on a GPU
+    python3 benchmarks/bench_train.py --config-preset paper --steps 2 --no-compile --loader-store build
+    python3 benchmarks/bench_train.py --config-preset paper --device cuda --precision bf16 --steps 50   # on a GPU
 
 Every run adds (or replaces) its row, keyed by (preset, device, precision, batch), in ``rows`` of
 ``benchmarks/results/train.json``; the compact/cpu/fp32 run also refreshes the top-level figures the README quotes.
@@ -16,10 +16,8 @@ what one step of the preset consumes (batch x it/s): workers needed = consumed /
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
-import platform
 import resource
 import subprocess
 import sys
@@ -29,13 +27,13 @@ from pathlib import Path
 
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from train.config import Config, resolve
+from train.data import PairDataset, make_loader, open_source, split_by_source
+from train.fit import Trainer
+from train.net import count_parameters
+from train.synthetic import SyntheticSource
 
-from train.config import resolve  # noqa: E402
-from train.data import PairDataset, make_loader, open_source, split_by_source  # noqa: E402
-from train.fit import Trainer  # noqa: E402
-from train.net import count_parameters  # noqa: E402
-from train.synthetic import SyntheticSource  # noqa: E402
+from harness import RESULTS, command, machine_info, parser, write_results
 
 NOTE = ("measured on a shared 2-core machine (other jobs running; load averages recorded): rerun on a quiet machine "
         "before quoting")
@@ -93,8 +91,9 @@ def bench_loader(cfg, src, train_idx, batches: int, workers: int) -> float:
 def build_store(root: Path, res: int) -> Path:
     """A small renders store (4 SVBRDFs x 5 views at ``res``²) made by svgen in a child process: this process must
     run no drjit kernel before the loader forks its workers (see benchmarks/bench_train_budget.py)."""
-    code = (f"from pipeline.config import SampleConfig, build\n"
-            f"from pipeline.render.stage import RenderConfig, run_render\n"
+    code = (f"from pipeline.config import RenderConfig, SampleConfig\n"
+            f"from pipeline.render.stage import run_render\n"
+            f"from svcore.config import build\n"
             f"from pipeline.sample import run_sample\n"
             f"run_sample('{root}/v.zarr', build(SampleConfig, 'default', presets=('paint/glossy_red', "
             f"'wood/oak_planks'), per_preset=2, size={res}), workers=0)\n"
@@ -120,8 +119,10 @@ def loader_sizing(cfg, store: str, workers: int, batches: int) -> dict:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--preset", default="compact", help="config preset: compact or paper")
+    ap = parser(__doc__)
+    ap.set_defaults(note=NOTE)
+    ap.add_argument("--config-preset", default=Config.DEFAULT_PRESET, choices=list(Config.PRESETS),
+                    help="svtrain's config preset")
     ap.add_argument("--device", default="cpu", help="auto, cpu, cuda, cuda:N, mps")
     ap.add_argument("--precision", default="fp32", help="fp32, bf16, fp16 (GPU)")
     ap.add_argument("--batch", type=int, default=None, help="batch size (default: the preset's)")
@@ -131,13 +132,13 @@ def main(argv=None) -> None:
     ap.add_argument("--no-compile", action="store_true")
     ap.add_argument("--loader-store", default=None,
                     help="renders store for the loader sizing at the preset's crop ('build': render a small one)")
-    ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "train.json"))
+    ap.add_argument("--out", default=str(RESULTS / "train.json"))
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
     ov = {"compute.device": a.device, "compute.precision": a.precision, "optim.compile_loss": not a.no_compile}
     if a.batch:
         ov["optim.batch_size"] = a.batch
-    cfg = resolve(a.preset, None, ov)
+    cfg = resolve(a.config_preset, None, ov)
     src = SyntheticSource(32, cfg.data.synthetic_size, 8, seed=0)
     train_idx, _ = split_by_source(src, cfg.data.holdout, 0)
     load0 = os.getloadavg()[0]
@@ -148,9 +149,7 @@ def main(argv=None) -> None:
            **{k: round(v, 4) if isinstance(v, float) else v for k, v in steps.items()},
            "consumed_samples_per_s": round(consumption, 2),
            "load_average_before": round(load0, 2), "load_average_after": round(os.getloadavg()[0], 2),
-           "cpus": os.cpu_count(), "machine": platform.machine(), "torch": torch.__version__,
-           "command": "python3 benchmarks/bench_train.py " + " ".join(argv if argv is not None else sys.argv[1:]),
-           "note": NOTE}
+           "machine": machine_info(), "command": command(), "note": a.note}
     if a.loader_store:
         sizing = loader_sizing(cfg, a.loader_store, a.workers, 8 if cfg.data.crop >= 256 else 30)
         sizing["workers_needed_for_this_step"] = round(consumption / sizing["per_worker_samples_per_s"], 2)
@@ -170,10 +169,12 @@ def main(argv=None) -> None:
                     "loader_vs_consumption": round(loader / consumption, 2),
                     "peak_rss_gb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6, 3),
                     "load_average_before": row["load_average_before"], "load_average_after": row["load_average_after"],
-                    "cpus": os.cpu_count(), "machine": platform.machine(), "torch": torch.__version__,
                     "bars": {"it_per_s": 2.0, "loader_vs_consumption": 5.0}})
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    out_path.write_text(json.dumps(res, indent=2) + "\n")
+    # the top-level command and machine are the latest run's (each row keeps its own)
+    res.update({"command": row["command"], "machine": row["machine"]})
+    for stale in ("cpus", "torch"):  # machine facts from before the harness: now under "machine"
+        res.pop(stale, None)
+    write_results(out_path, res, a.note)
     print(json.dumps(row, indent=2))
 
 

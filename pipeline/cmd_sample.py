@@ -3,27 +3,20 @@ from __future__ import annotations
 
 import click
 
-from .cli_options import config_options, parallel_options
-from .config import SampleConfig, build
+from svcore.cli import config_command, require
+
+from .cli_options import parallel_options
+from .config import SampleConfig
 
 
-@click.command()
-@click.argument("out", type=click.Path())
-@click.option("--per-preset", type=int, default=None, help="Variants per base material [default: 12].")
-@click.option("--size", type=int, default=None, help="Map resolution, 64..1024 [default: 256].")
-@click.option("--seed", type=int, default=None, help="Master seed of the stage [default: 0].")
-@click.option("--sigma", type=float, default=None, help="Perturbation width as a fraction of each range [default: 0.25].")
-@click.option("--preset", "presets", multiple=True, help="Only this base material (repeatable).")
-@click.option("--class", "classes", multiple=True, help="Only this material class (repeatable).")
-@click.option("--chunk", type=int, default=None, help="Samples per zarr chunk [default: 8].")
-@config_options("sample")
+@config_command(SampleConfig, {"per_preset": "--per-preset", "size": "--size", "seed": "--seed", "sigma": "--sigma",
+                               "presets": "--preset", "classes": "--class", "chunk": "--chunk"})
+@click.argument("out", type=click.Path(), required=False)
 @parallel_options
-def sample(out, per_preset, size, seed, sigma, presets, classes, chunk, config_name, params_file, workers,
-           scheduler_address):
+def sample(out, cfg, workers, scheduler_address):
     """Perturb every base material's parameters into a variants store at OUT."""
     from .sample import run_sample
 
-    cfg = build(SampleConfig, config_name, params_file, "sample", per_preset=per_preset, size=size, seed=seed,
-                sigma=sigma, presets=presets or None, classes=classes or None, chunk=chunk)
+    require(out=out)
     path = run_sample(out, cfg, workers=workers, scheduler_address=scheduler_address)
     click.echo(f"wrote {path}")

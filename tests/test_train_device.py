@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.errors import ConfigError
-from train.brdf import MIN_ROUGHNESS, ggx_cos
+from materials.capture import ROUGHNESS_MIN
+from svcore.errors import ConfigError
+from train.brdf import ggx_cos
 from train.config import resolve
 from train.device import check_precision, placement, resolve_device
 from train.fit import fit
@@ -54,7 +55,7 @@ def test_loss_stays_float32_under_autocast():
     g = torch.Generator().manual_seed(0)
     target = torch.rand(2, 10, 16, 16, generator=g)
     pred = torch.rand(2, 10, 16, 16, generator=g)
-    pred[:, 9] = MIN_ROUGHNESS  # the roughness floor, where bf16 GGX falls apart
+    pred[:, 9] = ROUGHNESS_MIN  # the roughness floor, where bf16 GGX falls apart
     pred = pred.to(torch.bfloat16)
     cfg = sample_configs(2, torch.Generator().manual_seed(1))
     ref = rendering_loss(pred.float(), target, cfg=cfg)

@@ -114,7 +114,7 @@ def test_other_world_size_resume(ddp_run, tmp_path):
     """A 2 x 4 checkpoint continues in one process only with the same global batch, and says why otherwise."""
     import shutil
 
-    from pipeline.errors import ConfigError
+    from svcore.errors import ConfigError
 
     run = tmp_path / "run"
     shutil.copytree(ddp_run, run)

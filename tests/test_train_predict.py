@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.cli import run_cli
-from pipeline.image_io import read_exr, srgb_decode, srgb_encode, write_exr
+from svcore.cli import run_cli
+from svcore.image_io import read_exr, srgb_decode, srgb_encode, write_exr
 from train.cli import svtrain
 
 SMALL = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",

@@ -1,7 +1,7 @@
 """Where training runs and in which precision: ``--device`` and ``--precision`` of ``svtrain fit``.
 
 Devices: ``auto`` (CUDA when torch sees one, else the CPU), ``cpu``, ``cuda``, ``cuda:N``, ``mps``. A device that
-is named but absent is a :class:`~pipeline.errors.ConfigError` (one line on the CLI), never a silent fallback.
+is named but absent is a :class:`~svcore.errors.ConfigError` (one line on the CLI), never a silent fallback.
 
 Precisions (:data:`PRECISIONS`): ``fp32``; ``bf16`` and ``fp16`` run the *network* under ``torch.autocast``
 (convolutions and linear layers in the low precision). What must stay float32 does, and these are the places:
@@ -24,12 +24,13 @@ but several times slower than fp32 (benchmarks/results/train.json rows).
 from __future__ import annotations
 
 import contextlib
-import re
 from dataclasses import dataclass
 
 import torch
 
-from pipeline.errors import ConfigError
+from svcore.errors import ConfigError
+
+from .config import DEVICE_SPEC
 
 #: device kinds of ``--device`` (``cuda`` also as ``cuda:N``).
 DEVICE_KINDS = ("auto", "cpu", "cuda", "mps")
@@ -54,7 +55,7 @@ def resolve_device(spec: str, local_rank: int | None = None) -> torch.device:
         ConfigError: unknown string, or a device this machine does not have.
     """
     s = str(spec).strip().lower()
-    m = re.fullmatch(r"(auto|cpu|cuda|mps)(?::(\d+))?", s)
+    m = DEVICE_SPEC.fullmatch(s)
     if m is None or (m.group(2) is not None and m.group(1) != "cuda"):
         raise ConfigError(f"unknown device {spec!r}; use one of auto, cpu, cuda, cuda:N, mps")
     kind, index = m.group(1), m.group(2)

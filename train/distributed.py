@@ -44,8 +44,8 @@ import torch
 import torch.distributed as dist
 import yaml
 
-from pipeline.errors import ConfigError, SvgenError
-from pipeline.log import get_logger
+from svcore.errors import ConfigError, SvgenError
+from svcore.log import get_logger
 
 log = get_logger(__name__)
 
@@ -258,8 +258,10 @@ def launch(cfg, out: str | Path, nproc: int, resume: bool) -> None:
     out = Path(out)
     with tempfile.TemporaryDirectory(prefix="svtrain-launch-") as tmp:
         params = Path(tmp) / "params.yaml"
-        params.write_text(yaml.safe_dump({"train": {**cfg.to_dict(), "compute": {**cfg.to_dict()["compute"],
-                                                                                   "nproc": 1}}}, sort_keys=False))
+        # the workers' loader (svcore.config) reads it back: the preset's name for their provenance, then every value
+        values = cfg.to_dict()
+        values["compute"]["nproc"] = 1  # each worker is one rank: it must not launch again
+        params.write_text(yaml.safe_dump({"train": {"config_preset": cfg.preset, **values}}, sort_keys=False))
         errors = Path(tmp) / "errors"
         errors.mkdir()
         args = ["-m", "train.cli", "fit", "--params", str(params), "--out", str(out)] + ([] if resume else

@@ -10,7 +10,8 @@ one rank (train/distributed.py) and rank 0 alone writes. :class:`Trainer` is the
 checkpoints, progress and outputs around it, and the benchmarks iterate the same object.
 
 Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (full state),
-``model.pt`` (weights + config), ``metrics.json``, ``loss.csv``, ``loss.png``.
+``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
+versions), ``metrics.json``, ``loss.csv``, ``loss.png``.
 """
 from __future__ import annotations
 
@@ -25,10 +26,11 @@ import numpy as np
 import torch
 import yaml
 
-from pipeline.errors import ConfigError, SvgenError
-from pipeline.log import get_logger
-from pipeline.progress import progress
-from pipeline.seeds import derive_seed
+from svcore.errors import ConfigError, SvgenError
+from svcore.log import get_logger
+from svcore.progress import progress
+from svcore.seeds import stream_seed
+from svcore.versions import library_versions
 
 from . import checkpoint
 from .config import Config, OptimConfig
@@ -42,19 +44,29 @@ from .net import SVBRDFNet, count_parameters
 log = get_logger(__name__)
 
 
-def _seeded(seed: int, key: int) -> int:
-    return derive_seed(seed, "train", 100 + key)
-
-
 def build(cfg: Config) -> tuple[SVBRDFNet, torch.optim.Optimizer, torch.Generator]:
     """Fresh model (seeded init), Adam, and the loss-configuration generator."""
     o = cfg.optim
-    torch.manual_seed(_seeded(o.seed, 0))
+    torch.manual_seed(stream_seed(o.seed, "train.init"))
     model = SVBRDFNet(cfg.model)
     opt = torch.optim.Adam(model.parameters(), lr=o.lr, betas=(o.beta1, o.beta2))
-    gen = torch.Generator().manual_seed(_seeded(o.seed, 1))
-    torch.manual_seed(_seeded(o.seed, 2))  # the dropout stream
+    gen = torch.Generator().manual_seed(stream_seed(o.seed, "train.loss_configs"))
+    torch.manual_seed(stream_seed(o.seed, "train.dropout"))
     return model, opt, gen
+
+
+def provenance(cfg: Config, src) -> dict:
+    """What a run trained on and with: the config preset, the data source (a renders store's path and config
+    hash, or the synthetic source's settings) and the library versions (stores record the same)."""
+    if cfg.data.store:
+        meta = getattr(src, "attrs", {}).get("svgen", {})
+        data = {"store": str(cfg.data.store), "store_resolved": str(Path(cfg.data.store).resolve()),
+                "kind": meta.get("kind"), "config_hash": meta.get("config_hash"), "n": meta.get("n")}
+    else:  # the source actually used (a caller may pass its own), not the config's synthetic_* defaults
+        data = {"synthetic": {k: getattr(src, a, None) for k, a in (("samples", "n"), ("size", "size"),
+                                                                    ("materials", "n_materials"), ("seed", "seed"),
+                                                                    ("kind", "kind"))}}
+    return {"config_preset": cfg.preset, "data": data, "versions": library_versions()}
 
 
 def lr_at(o: OptimConfig, step: int) -> float:
@@ -124,7 +136,7 @@ class Trainer:
         o = cfg.optim
         net, self.opt, self.gen = build(cfg)
         if self.world.rank:  # per-rank dropout masks (rank 0 keeps the single-process stream)
-            torch.manual_seed(derive_seed(o.seed, "train", 104, self.world.rank))
+            torch.manual_seed(stream_seed(o.seed, "train.rank_dropout", self.world.rank))
         self.net = net.to(self.place.device)  # in place: the optimiser's parameters move with it
         self.model: torch.nn.Module = self.net
         if self.world.size > 1:
@@ -143,7 +155,7 @@ class Trainer:
                              self.place.pin_memory, timeout)
         # A dedicated loader generator: DataLoader otherwise draws its base seed from torch's global RNG, which
         # would shift the dropout stream between an uninterrupted and a resumed run.
-        loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
+        loader.generator = torch.Generator().manual_seed(stream_seed(o.seed, "train.loader"))
         return loader
 
     def step(self, image: torch.Tensor, maps: torch.Tensor, step: int) -> tuple[float, float]:
@@ -263,7 +275,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
     Returns:
         the metrics dict (also in metrics.json; on ranks other than 0 nothing is written).
     """
-    cfg.validate()
+    cfg.check()
     o = cfg.optim
     world = world_from_env()
     place = placement(cfg.compute.device, cfg.compute.precision, world.local_rank if world.size > 1 else None)
@@ -305,6 +317,7 @@ def _fit(cfg: Config, out: Path, resume: bool, src, train_idx, test_idx, stop_af
     resumed_from = start if state is not None else None
     if world.main:
         (out / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
+        (out / "provenance.json").write_text(json.dumps(provenance(cfg, src), indent=2) + "\n")
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
 
@@ -343,5 +356,6 @@ def _fit(cfg: Config, out: Path, resume: bool, src, train_idx, test_idx, stop_af
              "global_batch": trainer.global_batch}
     if not world.main:
         return {"step": step, **extra}
-    checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": trainer.net.state_dict(), "step": step})
+    checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": trainer.net.state_dict(), "step": step,
+                                       "provenance": provenance(cfg, src)})
     return _write_outputs(out, cfg, losses, extra)

@@ -25,10 +25,10 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from pipeline.errors import ConfigError, SvgenError
-from pipeline.image_io import ImageError, read_exr, read_ldr, srgb_decode, srgb_encode, write_exr, write_png
-from pipeline.log import get_logger
-from pipeline.progress import progress
+from svcore.errors import ConfigError, SvgenError
+from svcore.image_io import ImageError, read_exr, read_ldr, srgb_decode, srgb_encode, write_exr, write_png
+from svcore.log import get_logger
+from svcore.progress import progress
 
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .checkpoint import load_model
