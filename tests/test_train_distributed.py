@@ -133,3 +133,16 @@ def test_rank_batches_partition_the_global_batch():
     ranks = [list(StepSampler(4, 3, 6, global_batch=8, rank=r)) for r in range(2)]
     assert [a + b for a, b in zip(*ranks)] == one
     assert one[0] == list(range(24, 32))
+
+
+def test_launcher_params_read_back_as_the_resolved_config(tmp_path):
+    """``svtrain fit --nproc`` hands its resolved config to the workers as a params file: the loader must read back
+    every value (floats such as 2e-5, a null store, nested sections) and the preset's name, with nproc 1."""
+    from train.distributed import write_worker_params
+
+    cfg = resolve("paper", None, {"optim.lr": 2e-5, "optim.normal_l2": 0.5, "data.synthetic_size": 288,
+                                  "compute.device": "cpu", "compute.precision": "bf16", "compute.nproc": 4,
+                                  "compute.global_batch": 12})
+    back = resolve(None, write_worker_params(cfg, tmp_path / "params.yaml"))
+    assert back.preset == "paper" and back.compute.nproc == 1
+    assert back.as_dict() == {**cfg.as_dict(), "compute": {**cfg.as_dict()["compute"], "nproc": 1}}

@@ -243,6 +243,16 @@ def launch_checked(cfg, out: str | Path, resume: bool) -> None:
     launch(cfg, out, cfg.compute.nproc, resume)
 
 
+def write_worker_params(cfg, path: Path) -> Path:
+    """The params file the launched workers train from (``svtrain fit --params PATH``): a ``train:`` section with
+    the preset's name (for their provenance) and every resolved value, ``compute.nproc`` set to 1 (a worker is one
+    rank: it must not launch again). ``train.config.resolve(None, path)`` reads back the same config."""
+    values = cfg.to_dict()
+    values["compute"]["nproc"] = 1
+    path.write_text(yaml.safe_dump({"train": {"config_preset": cfg.preset, **values}}, sort_keys=False))
+    return path
+
+
 def launch(cfg, out: str | Path, nproc: int, resume: bool) -> None:
     """Run ``svtrain fit`` in ``nproc`` processes on this machine through torch's elastic launcher.
 
@@ -257,11 +267,7 @@ def launch(cfg, out: str | Path, nproc: int, resume: bool) -> None:
 
     out = Path(out)
     with tempfile.TemporaryDirectory(prefix="svtrain-launch-") as tmp:
-        params = Path(tmp) / "params.yaml"
-        # the workers' loader (svcore.config) reads it back: the preset's name for their provenance, then every value
-        values = cfg.to_dict()
-        values["compute"]["nproc"] = 1  # each worker is one rank: it must not launch again
-        params.write_text(yaml.safe_dump({"train": {"config_preset": cfg.preset, **values}}, sort_keys=False))
+        params = write_worker_params(cfg, Path(tmp) / "params.yaml")
         errors = Path(tmp) / "errors"
         errors.mkdir()
         args = ["-m", "train.cli", "fit", "--params", str(params), "--out", str(out)] + ([] if resume else
