@@ -208,11 +208,13 @@ def make_loader(ds: PairDataset, batch_size: int, start: int, stop: int, workers
     """A DataLoader yielding the batches of steps start..stop-1 (any worker count gives the same batches).
 
     The loader always runs on the CPU (its workers are processes); ``pin_memory`` page-locks the batches so that
-    the copy to a CUDA device can be asynchronous. ``global_batch``/``rank``: see :class:`StepSampler`.
+    the copy to a CUDA device can be asynchronous. ``global_batch``/``rank``: see :class:`StepSampler`. ``timeout``:
+    seconds a worker may take per batch (0 = forever; ignored without workers, where nothing can hang apart).
     """
     return DataLoader(ds, batch_sampler=StepSampler(batch_size, start, stop, global_batch, rank), num_workers=workers,
                       persistent_workers=False, prefetch_factor=4 if workers else None,
-                      worker_init_fn=_one_thread if workers else None, pin_memory=pin_memory, timeout=timeout)
+                      worker_init_fn=_one_thread if workers else None, pin_memory=pin_memory,
+                      timeout=timeout if workers else 0)  # torch refuses a timeout without worker processes
 
 
 def _one_thread(_worker_id: int) -> None:
