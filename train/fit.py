@@ -204,8 +204,8 @@ class Trainer:
         n_old = int(state.get("world_size", 1))
         if g_old != self.global_batch:
             raise ConfigError(f"{where} was trained with a global batch of {g_old} ({n_old} process(es)); this run's "
-                              f"is {self.global_batch} ({self.world.size} x {self.batch}): pass --global-batch {g_old} to "
-                              f"continue it, or --no-resume")
+                              f"is {self.global_batch} ({self.world.size} x {self.batch}): pass --global-batch "
+                              f"{g_old} to continue it, or --no-resume")
         self.net.load_state_dict(state["model"])
         self.opt.load_state_dict(state["optim"])
         self.gen.set_state(state["loss_rng"])
