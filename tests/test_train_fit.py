@@ -57,9 +57,9 @@ def test_resume_equals_uninterrupted(src, tmp_path, optim, monkeypatch):
 
     steps, real_step = [], fit_module.train_step
 
-    def counted(*args):  # the real step, recording its index: the rerun must start at the checkpoint's step
-        steps.append(args[-1])
-        return real_step(*args)
+    def counted(*args, **kw):  # the real step, recording its index: the rerun must start at the checkpoint's step
+        steps.append(args[7])  # train_step(model, opt, loss_fn, image, maps, gen, o, step, ...)
+        return real_step(*args, **kw)
 
     monkeypatch.setattr(fit_module, "train_step", counted)
     resumed = fit(cfg, tmp_path / "b", source=src)

@@ -65,26 +65,42 @@ def train_store(checkpoint_path: str | os.PathLike, store: str | None, override:
 ACT_FACTOR = 8 * 4
 
 
-def check_run(cfg, out_dir: str | os.PathLike, n_train: int) -> None:
-    """Refuse, before the run directory is made, what cannot work: an output inside the training store, a batch
-    larger than the training split, a batch whose activations cannot fit in the available memory.
+def check_run(cfg, out_dir: str | os.PathLike, n_train: int, global_batch: int | None = None,
+              rank_batch: int | None = None, device=None, local_size: int = 1) -> None:
+    """Refuse, before the run directory is made, what cannot work: an output inside the training store, a global
+    batch larger than the training split, a rank's batch whose activations cannot fit in its device's memory.
+
+    Args:
+        global_batch, rank_batch: samples per step over all ranks and on this rank (default: optim.batch_size).
+        device: the rank's torch device (None or CPU: host memory shared by the ``local_size`` processes of this
+            machine; CUDA: that GPU's free memory; other devices are not checked).
 
     Raises:
         ConfigError / StoreError: one line naming the limit.
     """
     from pipeline.bounds import available_memory
-    from svcore.errors import ConfigError
     from pipeline.store import refuse_inside
+    from svcore.errors import ConfigError
 
     refuse_inside(out_dir, cfg.data.store)
-    b = cfg.optim.batch_size
-    if b > n_train:
-        raise ConfigError(f"optim.batch_size {b} is larger than the {n_train} training samples of the split; "
+    g = cfg.optim.batch_size if global_batch is None else global_batch
+    b = cfg.optim.batch_size if rank_batch is None else rank_batch
+    name = "optim.batch_size" if g == cfg.optim.batch_size else "the global batch"
+    if g > n_train:
+        raise ConfigError(f"{name} {g} is larger than the {n_train} training samples of the split; "
                           f"use at most {n_train}")
     m, crop = cfg.model, cfg.data.crop
     per_sample = ACT_FACTOR * sum(w * (crop >> i) ** 2 for i, w in enumerate(m.widths()))
-    mem = available_memory()
+    kind = getattr(device, "type", "cpu")
+    if kind == "cpu":
+        mem, where = available_memory() // max(1, local_size), "of memory available"
+    elif kind == "cuda":
+        import torch
+
+        mem, where = torch.cuda.mem_get_info(device)[0], f"free on {device}"
+    else:
+        return
     if b * per_sample > mem:
-        raise ConfigError(f"optim.batch_size {b} needs about {b * per_sample / 2**30:.1f} GiB of activations at "
+        raise ConfigError(f"a batch of {b} per process needs about {b * per_sample / 2**30:.1f} GiB of activations at "
                           f"crop {crop} ({per_sample / 2**20:.0f} MiB per sample), more than the "
-                          f"{mem / 2**30:.1f} GiB available; use at most {max(1, mem // per_sample)}")
+                          f"{mem / 2**30:.1f} GiB {where}; use at most {max(1, mem // per_sample)}")
