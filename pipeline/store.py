@@ -435,12 +435,12 @@ def check_chunks(path: str | os.PathLike, g: zarr.Group, meta: dict) -> None:
     p = Path(path)
     man = _manifest(p, meta)
     n, chunk = int(man["n"]), int(man["chunk"])
+    stat = os.stat
     for name, recs in man["arrays"].items():
-        arr = g[name]
+        arr, base = g[name], f"{p}{os.sep}{name}{os.sep}"
         for c, rec in enumerate(recs):
-            f = p / name / _chunk_key(arr, c)
             try:
-                size = os.stat(f).st_size
+                size = stat(base + _chunk_key(arr, c)).st_size
             except FileNotFoundError:
                 size = None
             if (rec is None) != (size is None) or (rec is not None and rec[0] != size):

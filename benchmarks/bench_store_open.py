@@ -1,0 +1,67 @@
+"""What the chunk-manifest check costs on every open: open_store with and without check_chunks, and verify_store.
+
+A store of N chunks x A arrays of tiny samples (the cost is per chunk file, not per byte: one stat each), as many
+files as a renders store of 2 * N SVBRDFs at chunk 2 with its 13 arrays.
+
+    python benchmarks/bench_store_open.py [--chunks 2000] -> benchmarks/results/store_open.json
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pipeline import store as S
+
+ARRAYS = 13
+
+
+def build(path: Path, chunks: int) -> None:
+    arrays = {f"a{k}": S.ArraySpec((4,), "uint16") for k in range(ARRAYS)}
+    with S.StoreWriter(path, "renders", chunks * 2, 2, arrays, {"bench": True}) as w:
+        for c in range(chunks):
+            a, b = w.chunk_range(c)
+            S.write_chunk(w.partial, c, a, {k: np.full((b - a, 4), c + 1, np.uint16) for k in arrays})
+        w.finalize()
+
+
+def best(fn, repeat: int = 5) -> float:
+    out = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t)
+    return min(out)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--chunks", type=int, default=2000)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        p = Path(d) / "s.zarr"
+        build(p, args.chunks)
+        with_check = best(lambda: S.open_store(p, "renders"))
+        real = S.check_chunks
+        S.check_chunks = lambda *a: None
+        try:
+            without = best(lambda: S.open_store(p, "renders"))
+        finally:
+            S.check_chunks = real
+        verify = best(lambda: S.verify_store(p), 2)
+    res = {"chunks": args.chunks, "arrays": ARRAYS, "chunk_files": args.chunks * ARRAYS,
+           "open_s_with_manifest_check": with_check, "open_s_without": without,
+           "check_s_per_1000_files": (with_check - without) / (args.chunks * ARRAYS) * 1000,
+           "verify_store_s": verify,
+           "note": "2 shared CPU cores (5 helpers at once), warm page cache; best of 5 (verify: of 2)"}
+    out = Path(__file__).parent / "results" / "store_open.json"
+    out.write_text(json.dumps(res, indent=1) + "\n")
+    print(json.dumps(res, indent=1))
+
+
+if __name__ == "__main__":
+    main()
