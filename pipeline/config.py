@@ -161,3 +161,65 @@ def load_section(params_file: str | Path, section: str | None) -> dict[str, Any]
 def as_dict(cfg) -> dict[str, Any]:
     """JSON-able dict of a config dataclass."""
     return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(cfg).items()}
+
+
+# --- svgen import (pipeline/importer/) -------------------------------------------------------------------------------
+IMPORT_LAYOUTS = ("auto", "folders", "deschaintre")
+NORMAL_CONVENTIONS = ("auto", "opengl", "directx")
+
+
+@dataclass(frozen=True)
+class ImportConfig:
+    """`svgen import`: material folders or 2018 strips -> a variants store (or a renders store)."""
+
+    sources: tuple[str, ...] = ()
+    """Source folders (a material folder, a tree of them, or a folder of 2018 strips). params.yaml lists them under
+    import.sources; empty by default, so the default pipeline imports nothing."""
+    layout: str = "auto"
+    """"folders" (one material per folder of map files), "deschaintre" (5-tile PNG strips), or "auto" (strips when
+    every image is a PNG 5 times as wide as high, else folders)."""
+    size: int = 256
+    """Output map side: sources are centre-cropped to a square and area-averaged down to it."""
+    normal_convention: str = "auto"
+    """"opengl" (y up, DESIGN.md), "directx" (green flipped), or "auto": the file name (NormalGL/NormalDX), else
+    the agreement with a height map's gradient, else OpenGL (recorded per material)."""
+    category: str = ""
+    """Category of materials whose sidecar metadata.json gives none (empty: "imported"); names become
+    "<category>/<material>"."""
+    allow_upscale: bool = False
+    """Permit maps smaller than size (periodic bilinear upsampling); otherwise such materials are refused."""
+    as_kind: str = "variants"
+    """"variants" (maps, re-rendered by svgen render), or "renders" (deschaintre layout only: the strip's own photo
+    as a one-view renders store with the identity view transform, for svtrain eval --store)."""
+    input_space: str = "linear"
+    """Deschaintre layout: how the strip's input photo is encoded ("linear": as the 2018 code read it; "srgb")."""
+    height_strength: float = 0.02
+    """Relief of height value 1 in tile widths: height-derived normals are normalize(-s dh/du, -s dh/dv, 1)."""
+    per_material: int = 3
+    """DVC pipeline only: variants per imported material that `svgen sample --from-dir` adds to the variants."""
+    chunk: int = 4
+    """Materials per zarr chunk (one dask task converts and writes one chunk)."""
+
+    def check(self) -> "ImportConfig":
+        _positive(self, "chunk", "per_material")
+        if self.layout not in IMPORT_LAYOUTS:
+            raise ConfigError(f"unknown layout {self.layout!r}; use one of {', '.join(IMPORT_LAYOUTS)}")
+        if self.normal_convention not in NORMAL_CONVENTIONS:
+            raise ConfigError(f"unknown normal convention {self.normal_convention!r}; use one of "
+                              f"{', '.join(NORMAL_CONVENTIONS)}")
+        if self.as_kind not in ("variants", "renders"):
+            raise ConfigError(f"--as must be 'variants' or 'renders', got {self.as_kind!r}")
+        if self.as_kind == "renders" and self.layout == "folders":
+            raise ConfigError("--as renders needs the deschaintre layout (folders hold maps, not photographs)")
+        if self.input_space not in ("linear", "srgb"):
+            raise ConfigError(f"--input-space must be 'linear' or 'srgb', got {self.input_space!r}")
+        if not isinstance(self.size, int) or not 16 <= self.size <= 4096:
+            raise ConfigError(f"size must be an integer in [16, 4096], got {self.size!r}")
+        if not 0 < self.height_strength <= 10:
+            raise ConfigError(f"height_strength must be in (0, 10], got {self.height_strength}")
+        if "/" in self.category:
+            raise ConfigError(f"category {self.category!r} must not contain '/'")
+        return self
+
+
+PRESETS[ImportConfig] = {"default": {}, "tiny": {"size": 64, "chunk": 2}}

@@ -1,0 +1,38 @@
+"""Centre square crop and area-averaged resampling to the output size.
+
+Downsampling averages the source pixels each output pixel covers (exact block means for integer factors,
+Pillow's BOX filter -- an area average -- otherwise): no output pixel mixes texels across the tile's border,
+so a tileable square source stays tileable. Upsampling (only with ``allow_upscale``) is periodic bilinear
+(scipy.ndimage.zoom with ``grid-wrap``), also tileable. A non-square source is centre-cropped to a square and
+cannot tile any more; that is recorded.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def centre_square(a: np.ndarray) -> np.ndarray:
+    """The centred largest square of (H, W, C)."""
+    h, w = a.shape[:2]
+    s = min(h, w)
+    r0, c0 = (h - s) // 2, (w - s) // 2
+    return a[r0:r0 + s, c0:c0 + s]
+
+
+def resize(a: np.ndarray, size: int) -> np.ndarray:
+    """(S, S, C) float32 -> (size, size, C) float32, area average down, periodic bilinear up."""
+    s = a.shape[0]
+    if s == size:
+        return a.astype(np.float32)
+    if s > size and s % size == 0:
+        f = s // size
+        return a.reshape(size, f, size, f, a.shape[2]).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
+    if s > size:
+        from PIL import Image
+
+        planes = [np.asarray(Image.fromarray(np.ascontiguousarray(a[..., c], np.float32), mode="F")
+                             .resize((size, size), Image.Resampling.BOX), np.float32) for c in range(a.shape[2])]
+        return np.stack(planes, axis=-1)
+    from scipy.ndimage import zoom
+
+    return zoom(a, (size / s, size / s, 1), order=1, mode="grid-wrap", grid_mode=True).astype(np.float32)
