@@ -16,14 +16,31 @@ from .config import SampleConfig, build
 @click.option("--preset", "presets", multiple=True, help="Only this base material (repeatable).")
 @click.option("--class", "classes", multiple=True, help="Only this material class (repeatable).")
 @click.option("--chunk", type=int, default=None, help="Samples per zarr chunk [default: 8].")
+@click.option("--from", "from_stores", multiple=True, type=click.Path(),
+              help="An imported variants store (svgen import) whose materials are perturbed too (repeatable).")
+@click.option("--from-dir", type=click.Path(file_okay=False), default=None,
+              help="Every *.zarr store in this folder, as --from (an empty or missing folder adds none).")
+@click.option("--per-material", type=int, default=3, show_default=True, help="Variants per imported material.")
+@click.option("--only-from", is_flag=True, help="With --from: no preset variants, only the imported materials'.")
 @config_options("sample")
 @parallel_options
-def sample(out, per_preset, size, seed, sigma, presets, classes, chunk, config_name, params_file, workers,
-           scheduler_address):
+def sample(out, per_preset, size, seed, sigma, presets, classes, chunk, from_stores, from_dir, per_material, only_from,
+           config_name, params_file, workers, scheduler_address):
     """Perturb every base material's parameters into a variants store at OUT."""
     from .sample import run_sample
 
     cfg = build(SampleConfig, config_name, params_file, "sample", per_preset=per_preset, size=size, seed=seed,
                 sigma=sigma, presets=presets or None, classes=classes or None, chunk=chunk)
-    path = run_sample(out, cfg, workers=workers, scheduler_address=scheduler_address)
+    stores = list(from_stores)
+    if from_dir:
+        from pathlib import Path
+
+        stores += sorted(str(p) for p in Path(from_dir).glob("*.zarr")) if Path(from_dir).is_dir() else []
+    if stores:  # imported materials join the presets' variants (pipeline/sample_from.py)
+        from .sample_from import run_sample_from
+
+        path = run_sample_from(out, cfg, stores, per_material, not only_from, workers=workers,
+                               scheduler_address=scheduler_address)
+    else:
+        path = run_sample(out, cfg, workers=workers, scheduler_address=scheduler_address)
     click.echo(f"wrote {path}")
