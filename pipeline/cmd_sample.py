@@ -20,7 +20,8 @@ from .config import SampleConfig, build
               help="An imported variants store (svgen import) whose materials are perturbed too (repeatable).")
 @click.option("--from-dir", type=click.Path(file_okay=False), default=None,
               help="Every *.zarr store in this folder, as --from (an empty or missing folder adds none).")
-@click.option("--per-material", type=int, default=3, show_default=True, help="Variants per imported material.")
+@click.option("--per-material", type=int, default=None,
+              help="Variants per imported material [default: params.yaml import.per_material, else 3].")
 @click.option("--only-from", is_flag=True, help="With --from: no preset variants, only the imported materials'.")
 @config_options("sample")
 @parallel_options
@@ -37,7 +38,11 @@ def sample(out, per_preset, size, seed, sigma, presets, classes, chunk, from_sto
 
         stores += sorted(str(p) for p in Path(from_dir).glob("*.zarr")) if Path(from_dir).is_dir() else []
     if stores:  # imported materials join the presets' variants (pipeline/sample_from.py)
+        from .config import ImportConfig
         from .sample_from import run_sample_from
+
+        if per_material is None:
+            per_material = build(ImportConfig, "default", params_file, "import").per_material
 
         path = run_sample_from(out, cfg, stores, per_material, not only_from, workers=workers,
                                scheduler_address=scheduler_address)
