@@ -29,7 +29,7 @@ from ..image_io import srgb_decode
 from . import ImportInputError
 from . import normals as nm
 from .discover import MaterialSource
-from .readers import ImageInfo, info, read
+from .readers import ImageInfo, _scale, info, read_raw
 from .resample import centre_square, resize
 
 COLOUR_ROLES = ("basecolor", "specular")
@@ -73,13 +73,6 @@ def _srgb_lut(bits: int) -> np.ndarray:
     return srgb_decode(np.arange(top + 1, dtype=np.float64) / top).astype(np.float32)
 
 
-def srgb_to_linear(a: np.ndarray, bits: int) -> np.ndarray:
-    """sRGB-encoded values read from a ``bits``-bit file (code / (2^bits - 1)) -> linear float32."""
-    bits = 16 if bits > 8 else 8
-    top = 2 ** bits - 1
-    return _srgb_lut(bits)[np.clip(np.rint(a * top), 0, top).astype(np.int64)]
-
-
 def _grey(a: np.ndarray) -> np.ndarray:
     return a[..., :1] if a.shape[-1] == 1 else a[..., :3].mean(axis=-1, keepdims=True)
 
@@ -107,17 +100,21 @@ def convert(mat: MaterialSource, size: int, allow_upscale: bool, convention: str
     rec: dict = {"maps": {}, "warnings": []}
     raw, tileable = {}, True
     for role, path in mat.files.items():
-        a = read(path)
+        # JPEG: decode at a reduced DCT scale while >= 2x the output (the last 2x is averaged in linear light)
+        a = read_raw(path, min_size=2 * size)
+        decoded = [int(a.shape[1]), int(a.shape[0])]
         if a.shape[0] != a.shape[1]:
             tileable = False
         a = centre_square(a)
+        if role in COLOUR_ROLES and a.dtype.kind == "u":  # decode before averaging: averages are linear-light ones
+            a = _srgb_lut(a.dtype.itemsize * 8)[_rgb(a)]
+        elif a.dtype.kind == "u":
+            a = _scale(a)
         if role == "normal":
             a = nm.decode(a, path)
             space = "data: (n+1)/2" if not infos[role].float_linear else "data: n"
         elif role in COLOUR_ROLES:
             a = _rgb(a)
-            if not infos[role].float_linear:  # decode before averaging: area averages are linear-light averages
-                a = srgb_to_linear(a, infos[role].bits)
             space = "linear (float file)" if infos[role].float_linear else "sRGB IEC 61966-2-1 -> linear (colour-science)"
         else:
             a = _grey(a)
@@ -125,6 +122,8 @@ def convert(mat: MaterialSource, size: int, allow_upscale: bool, convention: str
         a = resize(a, size)
         entry = {"file": path.name, "space": space, "source_size": [infos[role].width, infos[role].height],
                  "bits": infos[role].bits}
+        if decoded != entry["source_size"]:
+            entry["decoded_size"] = decoded  # JPEG decoded at a reduced DCT scale
         if role not in ("normal", "height"):
             out = float(((a < 0) | (a > 1)).mean())
             if out > 0:
