@@ -1,0 +1,58 @@
+"""`svgen stats` of the procedural library: the numbers behind the widened specular ranges (docs/IMPORT.md).
+
+Samples every preset (``--per-preset`` variants at ``--size``, seed 0, the default sigma) into a temporary store
+and writes the stats summary, plus the specular F0 luminance per class (median, 5-95 % range, mean spatial std),
+to benchmarks/results/stats_procedural.json (or ``--out``).
+
+Usage: python3 benchmarks/stats_procedural.py [--per-preset 3] [--size 128] [--out FILE]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from pipeline.config import SampleConfig, build  # noqa: E402
+from pipeline.sample import run_sample  # noqa: E402
+from pipeline.stats import store_stats  # noqa: E402
+from pipeline.svbrdf_store import SVBRDFStore  # noqa: E402
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--per-preset", type=int, default=3)
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--out", default=str(ROOT / "benchmarks/results/stats_procedural.json"))
+    a = ap.parse_args(argv)
+    tmp = Path(tempfile.mkdtemp(prefix="stats-proc-"))
+    try:
+        path = run_sample(tmp / "v.zarr", build(SampleConfig, per_preset=a.per_preset, size=a.size), workers=0)
+        s = store_stats(path, stride=2)
+        classes = [src.split("/")[0] for src in (SVBRDFStore(path).source(i)["presets"][0]
+                                                for i in range(s["materials"]))]
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    per = s["per_material"]
+    by_class = {}
+    for c in sorted(set(classes)):
+        idx = [i for i, k in enumerate(classes) if k == c]
+        y = np.asarray(per["specular_y_mean"])[idx]
+        by_class[c] = {"specular_y_median": float(np.median(y)), "specular_y_p05": float(np.percentile(y, 5)),
+                       "specular_y_p95": float(np.percentile(y, 95)),
+                       "specular_y_spatial_std": float(np.mean(np.asarray(per["specular_y_std"])[idx]))}
+    res = {"per_preset": a.per_preset, "size": a.size, "summary": s["summary"], "specular_by_class": by_class}
+    Path(a.out).write_text(json.dumps(res, indent=1) + "\n")
+    print(json.dumps(res, indent=1))
+    return res
+
+
+if __name__ == "__main__":
+    main()
