@@ -230,3 +230,38 @@ def test_same_bytes_for_any_worker_count_and_resume(tmp_path, rng, monkeypatch):
     c, _ = imp(tmp_path / "src", tmp_path / "k.zarr", size=16, chunk=2)
     assert tree_digest(c) == tree_digest(a)
     assert json.loads((tmp_path / "k.zarr" / "zarr.json").read_text())["attributes"]["materials"][0]["name"] == "M0"
+
+
+def test_mixed_sizes_upscale_and_input_space(tmp_path, svgen_cli, rng):
+    from pipeline.render.store import RendersReader
+
+    d = tmp_path / "src" / "mixed"
+    d.mkdir(parents=True)
+    base = rng.random((32, 32, 3))
+    png8(d / "color.png", np.kron(base, np.ones((2, 2, 1))))  # 64^2 colour, 32^2 roughness: same surface
+    png8(d / "rough.png", np.full((32, 32), 0.3))
+    code, out = svgen_cli("import", tmp_path / "src", tmp_path / "a.zarr", "--size", 64, "--workers", 0)
+    assert code == 2 and "--allow-upscale" in out
+    code, out = svgen_cli("import", tmp_path / "src", tmp_path / "a.zarr", "--size", 64, "--workers", 0,
+                          "--allow-upscale")
+    assert code == 0, out
+    m = SVBRDFStore(tmp_path / "a.zarr").maps(0)
+    assert np.abs(m.roughness - 0.3).max() < 0.5 * Q8 + Q16  # a constant stays constant when enlarged
+    code, out = svgen_cli("import", tmp_path / "src", tmp_path / "b.zarr", "--size", 32, "--workers", 0)
+    assert code == 0, out
+    m = SVBRDFStore(tmp_path / "b.zarr").maps(0)
+    assert np.abs(m.diffuse - srgb_decode(np.round(base * 255) / 255)).max() < 2 * Q16  # 2x2 blocks averaged back
+    # --input-space srgb decodes the strip's photo; linear keeps it
+    (tmp_path / "strips").mkdir()
+    t = 16
+    img = rng.random((t, t, 3))
+    n = np.zeros((t, t, 3))
+    n[..., 2] = 1
+    png8(tmp_path / "strips" / "s.png", strip_of(img, n, img, img[..., 0], img * 0.1))
+    for space, want in (("linear", np.round(img * 255) / 255), ("srgb", srgb_decode(np.round(img * 255) / 255))):
+        out_p = tmp_path / f"r_{space}.zarr"
+        code, out = svgen_cli("import", tmp_path / "strips", out_p, "--as", "renders", "--size", t,
+                              "--input-space", space, "--workers", 0)
+        assert code == 0, out
+        assert np.abs(RendersReader(out_p).image(0) - want).max() < 0.007
+        assert RendersReader(out_p).attrs["config"]["input_space"] == space
