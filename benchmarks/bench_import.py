@@ -85,6 +85,15 @@ def main(argv=None) -> dict:
         gen_s = time.perf_counter() - t
         one = timed(tmp / "src", tmp / "w0.zarr", a.size, 0)
         two = timed(tmp / "src", tmp / "w2.zarr", a.size, 2)
+        per_layout = {}
+        for tag, pattern in (("ambientcg_jpeg", "Ground*"), ("matsynth_png", "matsynth_*")):
+            sub = tmp / tag
+            sub.mkdir()
+            for d in sorted((tmp / "src").glob(pattern)):
+                d.rename(sub / d.name)
+            k = len(list(sub.iterdir()))
+            t1 = timed(sub, tmp / f"{tag}.zarr", a.size, 0)
+            per_layout[tag] = {"materials": k, "workers_0_s_per_material": round(t1 / k, 3)}
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     res = {
@@ -93,6 +102,7 @@ def main(argv=None) -> dict:
         "workers_0": {"wall_s": round(one, 2), "materials_per_s": round(a.materials / one, 2)},
         "workers_2": {"wall_s": round(two, 2), "materials_per_s": round(a.materials / two, 2),
                       "matsynth_4069_minutes": round(4069 / (a.materials / two) / 60, 1)},
+        "per_layout_one_process": per_layout,
         "bar_materials_per_s": BAR, "meets_bar": a.materials / two >= BAR,
         "fixture_write_s": round(gen_s, 1), "cpus": os.cpu_count(), "python": platform.python_version(),
         "note": "measured on a machine shared with other jobs (2 cores, 5 concurrent sessions): rerun quietly; "

@@ -87,7 +87,8 @@ def category_of(m: MaterialSource, cfg: ImportConfig) -> str:
 def describe(m: MaterialSource, cfg: ImportConfig, source_root: Path) -> dict:
     """Provenance of a material known before conversion (paths resolved, so spelling-independent)."""
     root = m.root.resolve()
-    files = {r: str(p.resolve().relative_to(root) if p.resolve().is_relative_to(root) else p.resolve())
+    base = root if root.is_dir() else root.parent  # a strip is a file
+    files = {r: str(p.resolve().relative_to(base) if p.resolve().is_relative_to(base) else p.resolve())
              for r, p in m.files.items()}
     d = {"name": m.name, "preset": f"{category_of(m, cfg)}/{m.name}", "source": str(root),
          "source_relative": str(root.relative_to(source_root)) if root.is_relative_to(source_root) else str(root),
