@@ -11,7 +11,7 @@ import yaml
 
 from conftest import tree_digest
 from import_fixtures import ambientcg, bumpy_normals
-from test_dvc_pipeline import ENV, REPO, sh  # noqa: F401  (same project copy rules)
+from test_dvc_pipeline import REPO, sh  # the same project copy rules
 
 SAMPLE = {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8, "presets": ["paint/glossy_red"]}
 

@@ -9,7 +9,7 @@ import zlib
 import numpy as np
 import pytest
 
-from import_fixtures import ambientcg, bumpy_normals, png8, unit
+from import_fixtures import ambientcg, bumpy_normals, png8
 from conftest import tree_digest
 from pipeline.importer import normals as nm
 from pipeline.importer.perturb import TABLE, apply
@@ -108,3 +108,9 @@ def test_end_to_end_tiny(imported, tmp_path, svgen_cli):
     assert code == 0, err
     res = json.loads((tmp_path / "eval" / "eval.json").read_text())
     assert all(np.isfinite(v) for v in res["model"].values())
+    # every published sample, not only a held-out split of them
+    code, out, err = run("eval", "--checkpoint", tmp_path / "run", "--store", tmp_path / "test.zarr", "--suite",
+                         "all", "--out", tmp_path / "eval_all")
+    assert code == 0, err
+    res = json.loads((tmp_path / "eval_all" / "eval.json").read_text())
+    assert res["samples"] == 4 and all(np.isfinite(v) for v in res["model"].values())

@@ -29,7 +29,7 @@ from ..image_io import srgb_decode
 from . import ImportInputError
 from . import normals as nm
 from .discover import MaterialSource
-from .readers import ImageInfo, _scale, info, read_raw
+from .readers import ImageInfo, info, read_raw
 from .resample import centre_square, resize
 
 COLOUR_ROLES = ("basecolor", "specular")
@@ -106,20 +106,23 @@ def convert(mat: MaterialSource, size: int, allow_upscale: bool, convention: str
         if a.shape[0] != a.shape[1]:
             tileable = False
         a = centre_square(a)
-        if role in COLOUR_ROLES and a.dtype.kind == "u":  # decode before averaging: averages are linear-light ones
-            a = _srgb_lut(a.dtype.itemsize * 8)[_rgb(a)]
-        elif a.dtype.kind == "u":
-            a = _scale(a)
+        scale = np.float32(1.0)
+        if a.dtype.kind == "u":
+            if role in COLOUR_ROLES:  # decode before averaging: averages of colour are averages of light
+                a = _srgb_lut(a.dtype.itemsize * 8)[_rgb(a)]
+            else:  # data are linear in their codes: average the codes (no full-size float copy), then scale
+                scale = np.float32(1.0 / np.iinfo(a.dtype).max)
+        a = resize(a, size) * scale
         if role == "normal":
             a = nm.decode(a, path)
             space = "data: (n+1)/2" if not infos[role].float_linear else "data: n"
         elif role in COLOUR_ROLES:
             a = _rgb(a)
-            space = "linear (float file)" if infos[role].float_linear else "sRGB IEC 61966-2-1 -> linear (colour-science)"
+            space = ("linear (float file)" if infos[role].float_linear
+                     else "sRGB IEC 61966-2-1 -> linear (colour-science)")
         else:
             a = _grey(a)
             space = "data (no transfer function)"
-        a = resize(a, size)
         entry = {"file": path.name, "space": space, "source_size": [infos[role].width, infos[role].height],
                  "bits": infos[role].bits}
         if decoded != entry["source_size"]:

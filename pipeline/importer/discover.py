@@ -81,7 +81,8 @@ def folder_material(folder: Path, names: list[str], convention: str) -> Material
     for n in names:
         m = classify(n)
         if isinstance(m, Match):
-            pref = 0 if (m.role != "normal" or m.convention in (None, convention if convention != "auto" else "opengl")) else 1
+            wanted = convention if convention != "auto" else "opengl"  # which normal file wins when both exist
+            pref = 0 if (m.role != "normal" or m.convention in (None, wanted)) else 1
             key = (pref, m.rank, EXT_RANK.get(Path(n).suffix.lower(), 9), n)
             cands.setdefault(m.role, []).append((key, n, m))
         elif m == "ignored":

@@ -20,7 +20,7 @@ def centre_square(a: np.ndarray) -> np.ndarray:
 
 
 def resize(a: np.ndarray, size: int) -> np.ndarray:
-    """(S, S, C) float32 -> (size, size, C) float32, area average down, periodic bilinear up."""
+    """(S, S, C) float32 or integer codes -> (size, size, C) float32, area average down, periodic bilinear up."""
     s = a.shape[0]
     if s == size:
         return a.astype(np.float32)
@@ -29,6 +29,7 @@ def resize(a: np.ndarray, size: int) -> np.ndarray:
         # two contiguous partial sums (rows, then columns) are ~6x faster than one mean over axes (1, 3)
         rows = a.reshape(size, f, s * c).sum(1, dtype=np.float32)
         return (rows.reshape(size, size, f, c).sum(2, dtype=np.float32) / np.float32(f * f)).astype(np.float32)
+    a = a.astype(np.float32, copy=False)
     if s > size:
         from PIL import Image
 
