@@ -3,7 +3,6 @@ listed folders join the variants (and so blend and render) through `svgen sample
 from __future__ import annotations
 
 import shutil
-import sys
 
 import numpy as np
 import pytest
@@ -37,9 +36,12 @@ def test_dvc_import_stage(tmp_path):
     empty = project(tmp_path / "empty", [])
     r = sh(["dvc", "repro", "sample"], empty)
     assert "Running stage 'import'" in r.stdout and "Running stage 'sample'" in r.stdout, r.stdout
-    ref = tmp_path / "ref.zarr"
-    sh([sys.executable, "-c", "from pipeline.cli import main; main()", "sample", str(ref), "--params",
-        "params.yaml", "--workers", "0"], empty)
+    # the reference: the sample stage's own function, without any import code path
+    from pipeline.config import SampleConfig, build
+    from pipeline.sample import run_sample
+
+    ref = run_sample(tmp_path / "ref.zarr", build(SampleConfig, params_file=empty / "params.yaml", section="sample"),
+                     workers=0)
     assert tree_digest(empty / "data/variants.zarr") == tree_digest(ref)  # the default pipeline is unchanged
 
     src = tmp_path / "library"
