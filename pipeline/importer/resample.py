@@ -1,7 +1,8 @@
 """Centre square crop and area-averaged resampling to the output size.
 
-Downsampling averages the source pixels each output pixel covers (exact block means for integer factors,
-Pillow's BOX filter -- an area average -- otherwise): no output pixel mixes texels across the tile's border,
+Downsampling averages the source pixels each output pixel covers (exact block means for integer factors; for
+other factors a separable matrix of exact fractional coverage -- Pillow's BOX filter weighs whole pixels by
+their centres, 1.6 % off on a sine at 96 -> 64): no output pixel mixes texels across the tile's border,
 so a tileable square source stays tileable. Upsampling (only with ``allow_upscale``) is periodic bilinear
 (scipy.ndimage.zoom with ``grid-wrap``), also tileable. A non-square source is centre-cropped to a square and
 cannot tile any more; that is recorded.
@@ -19,6 +20,14 @@ def centre_square(a: np.ndarray) -> np.ndarray:
     return a[r0:r0 + s, c0:c0 + s]
 
 
+def coverage(s: int, n: int) -> np.ndarray:
+    """(n, s) float32: the fraction of output pixel i's footprint [i s/n, (i+1) s/n) that source pixel j covers."""
+    a = np.arange(n)[:, None] * (s / n)
+    j = np.arange(s)[None, :]
+    overlap = np.clip(np.minimum(a + s / n, j + 1) - np.maximum(a, j), 0, None)
+    return (overlap / (s / n)).astype(np.float32)
+
+
 def resize(a: np.ndarray, size: int) -> np.ndarray:
     """(S, S, C) float32 or integer codes -> (size, size, C) float32, area average down, periodic bilinear up."""
     s = a.shape[0]
@@ -31,11 +40,8 @@ def resize(a: np.ndarray, size: int) -> np.ndarray:
         return (rows.reshape(size, size, f, c).sum(2, dtype=np.float32) / np.float32(f * f)).astype(np.float32)
     a = a.astype(np.float32, copy=False)
     if s > size:
-        from PIL import Image
-
-        planes = [np.asarray(Image.fromarray(np.ascontiguousarray(a[..., c], np.float32), mode="F")
-                             .resize((size, size), Image.Resampling.BOX), np.float32) for c in range(a.shape[2])]
-        return np.stack(planes, axis=-1)
+        w = coverage(s, size)
+        return np.einsum("ij,jkc,lk->ilc", w, a, w, optimize=True).astype(np.float32)
     from scipy.ndimage import zoom
 
     return zoom(a, (size / s, size / s, 1), order=1, mode="grid-wrap", grid_mode=True).astype(np.float32)
