@@ -122,9 +122,6 @@ def _convert(m: MaterialSource, cfg: ImportConfig):
 
 def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource], cfg: ImportConfig) -> int:
     """Worker: convert the materials of chunk ``c``, record what was decided, write the whole chunk."""
-    from ..render.encoding import encode_srgb8
-    from ..render.views import ViewParams
-
     start, stop = c * cfg.chunk, min(len(mats), (c + 1) * cfg.chunk)
     maps = {k: [] for k in MAP_NAMES}
     images, records = [], []
@@ -133,6 +130,8 @@ def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource
         for k, v in encode_maps(svbrdf).items():
             maps[k].append(v)
         if image is not None:
+            from ..render.encoding import encode_srgb8
+
             images.append(encode_srgb8(image)[None])
         records.append(rec)
     n = stop - start
@@ -140,6 +139,8 @@ def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource
     data["seed"] = np.array([zlib.crc32(m.name.encode()) for m in mats[start:stop]], np.uint64)
     data["preset"] = np.array([[i, -1] for i in range(start, stop)], np.int32)
     if cfg.as_kind == "renders":
+        from ..render.views import ViewParams  # loads mitsuba: only for renders stores
+
         data["image"] = np.stack(images)
         data["view"] = np.tile(ViewParams(light_x=0.0, light_y=0.0).as_array(), (n, 1, 1))
         data["source"] = np.arange(start, stop, dtype=np.int64)
