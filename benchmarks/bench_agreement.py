@@ -26,30 +26,20 @@ Usage: python3 benchmarks/bench_agreement.py [--quick] [--res 256] [--no-chart].
 """
 from __future__ import annotations
 
-import argparse
-import csv
-import json
-import platform
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
+import torch
+import torch.nn.functional as F
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from materials import registry
+from materials.maps import pack_maps
+from pipeline.render.scene import FlashScene, scene_constants
+from pipeline.render.views import draw_view, planes_of, svbrdf_of, transform_planes
+from svcore.seeds import rng_for
+from train.render import flash_render
 
-import torch  # noqa: E402
-import torch.nn.functional as F  # noqa: E402
-
-from materials import registry  # noqa: E402
-from pipeline.render.scene import FlashScene, scene_constants  # noqa: E402
-from pipeline.render.views import draw_view, planes_of, svbrdf_of, transform_planes  # noqa: E402
-from pipeline.seeds import rng_for  # noqa: E402
-from train.render import flash_render  # noqa: E402
-from train.synthetic import pack  # noqa: E402
-
-import drjit as dr  # noqa: E402
+from harness import IMG, RESULTS, parser, timed, write_csv, write_results
 
 MATERIALS = ("metal/polished_gold", "plastic/glossy_blue", "leather/black_smooth", "ground/beach_sand")
 SETTINGS = ([("independent", spp) for spp in (1, 2, 4, 8, 16, 64)]
@@ -59,20 +49,9 @@ SUPERSAMPLE = 8
 CONTRACT = 0.01
 
 
-def timed(f, reps: int):
-    """(result of the last call, median CPU seconds, median wall seconds) over ``reps`` calls."""
-    cpu, wall, out = [], [], None
-    for _ in range(reps):
-        c, w = time.process_time(), time.perf_counter()
-        out = f()
-        cpu.append(time.process_time() - c)
-        wall.append(time.perf_counter() - w)
-    return out, float(np.median(cpu)), float(np.median(wall))
-
-
 def torch_images(maps, view, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Torch renders of screen-space maps: (pixel centres, pixel integral over a k x k grid), clipped, (H, W, 3)."""
-    x = torch.from_numpy(pack(maps)).permute(2, 0, 1)[None]
+    x = torch.from_numpy(pack_maps(maps)).permute(2, 0, 1)[None]
     light = torch.tensor([view.light_x, view.light_y])
     with torch.no_grad():
         centre = flash_render(x, light)
@@ -83,10 +62,10 @@ def torch_images(maps, view, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--quick", action="store_true", help="2 materials, 1 timing repeat (smoke run)")
     ap.add_argument("--res", type=int, default=256)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "agreement"))
+    ap.add_argument("--out", default=str(RESULTS / "agreement"), help="results path without suffix")
     ap.add_argument("--no-chart", action="store_true")
     args = ap.parse_args(argv)
     # One torch thread: with drjit's pool alive in the same process on 2 cores, 2 torch threads made
@@ -102,7 +81,7 @@ def main(argv=None) -> int:
         planes = transform_planes(planes_of(base), BASE, view, res)
         maps = svbrdf_of(planes, res)
         (centre, integral), t_cpu, t_wall = timed(lambda: torch_images(maps, view, SUPERSAMPLE), 1)
-        _, tc_cpu, tc_wall = timed(lambda: flash_render(torch.from_numpy(pack(maps)).permute(2, 0, 1)[None],
+        _, tc_cpu, tc_wall = timed(lambda: flash_render(torch.from_numpy(pack_maps(maps)).permute(2, 0, 1)[None],
                                                         torch.tensor([view.light_x, view.light_y])), reps)
         cases.append({"material": name, "view": view, "planes": planes, "torch_centre": centre,
                       "torch_integral": integral, "torch_cpu_s": tc_cpu, "torch_wall_s": tc_wall,
@@ -155,29 +134,26 @@ def main(argv=None) -> int:
                        "torch_wall_s_per_view": c["torch_wall_s"]} for c in cases],
         "settings": rows,
         "scene": scene_constants(),
-        "machine": {"platform": platform.platform(), "python": platform.python_version(),
-                    "drjit_threads": dr.thread_count(), "torch_threads": torch.get_num_threads(),
-                    "torch": torch.__version__},
         "quick": args.quick,
     }
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".json").write_text(json.dumps(result, indent=1))
-    with open(out.with_suffix(".csv"), "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["sampler", "spp", "res", "material", "rel_rmse", "rel_rmse_vs_integral", "mitsuba_cpu_s_per_view",
-                    "mitsuba_wall_s_per_view"])
-        for r in rows:
-            w.writerow([r["sampler"], r["spp"], r["res"], "pooled", r["rel_rmse"], r["rel_rmse_vs_integral"],
-                        r["mitsuba_cpu_s_per_view"], r["mitsuba_wall_s_per_view"]])
-            for p in r["per_material"]:
-                w.writerow([r["sampler"], r["spp"], r["res"], p["material"], p["rel_rmse"],
-                            p["rel_rmse_vs_integral"], p["mitsuba_cpu_s"], p["mitsuba_wall_s"]])
+    write_results(out.with_suffix(".json"), result, args.note)
+    table = []
+    for r in rows:
+        key = {"sampler": r["sampler"], "spp": r["spp"], "res": r["res"]}
+        table.append({**key, "material": "pooled", "rel_rmse": r["rel_rmse"],
+                      "rel_rmse_vs_integral": r["rel_rmse_vs_integral"],
+                      "mitsuba_cpu_s_per_view": r["mitsuba_cpu_s_per_view"],
+                      "mitsuba_wall_s_per_view": r["mitsuba_wall_s_per_view"]})
+        table += [{**key, "material": p["material"], "rel_rmse": p["rel_rmse"],
+                   "rel_rmse_vs_integral": p["rel_rmse_vs_integral"], "mitsuba_cpu_s_per_view": p["mitsuba_cpu_s"],
+                   "mitsuba_wall_s_per_view": p["mitsuba_wall_s"]} for p in r["per_material"]]
+    write_csv(out.with_suffix(".csv"), table)
     print(f"agreement floor (centre, 1 spp): {floor['rel_rmse']:.3e} pooled, {floor['rel_rmse_max']:.3e} max")
     if not args.no_chart:
         from charts_agreement import chart_agreement
 
-        png = chart_agreement(out.with_suffix(".json"), ROOT / "docs" / "img" / "chart_agreement.png")
+        png = chart_agreement(out.with_suffix(".json"), IMG / "chart_agreement.png")
         print("chart:", png)
     return 0
 

@@ -14,28 +14,25 @@ then come from the page cache); and per layout the least of 3 timings of one mat
 >= 5 materials/s (MatSynth's 4,069 materials in under 15 minutes).
 
 Writes benchmarks/results/import.json. Usage: python3 benchmarks/bench_import.py [--materials N] [--size S]
+[--note TEXT]
 """
 from __future__ import annotations
 
-import argparse
 import json
-import os
-import platform
 import shutil
-import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
+from pipeline.config import ImportConfig
+from pipeline.importer.convert import convert
+from pipeline.importer.discover import find_folders
+from pipeline.importer.job import run_import
+from svcore.config import build
+from svcore.image_io import write_png, write_png16
 
-from import_fixtures import png8, png16  # noqa: E402
-from pipeline.config import ImportConfig, build  # noqa: E402
-from pipeline.importer.job import run_import  # noqa: E402
+from harness import RESULTS, parser, timed, write_results
 
 BAR = 5.0
 
@@ -62,38 +59,35 @@ def write_sources(root: Path, n: int, s: int) -> None:
             d = root / f"matsynth_{k:03d}"
             d.mkdir(parents=True)
             for role, ch in (("basecolor", 3), ("normal", 3), ("roughness", 1), ("metallic", 1)):
-                png8(d / f"{role}.png", texture(s, rng, ch))
-            png16(d / "height.png", texture(s, rng, 1))
+                write_png(d / f"{role}.png", texture(s, rng, ch))
+            write_png16(d / "height.png", texture(s, rng, 1))
             (d / "metadata.json").write_text(json.dumps({"category": "ground", "license": "CC0"}))
 
 
-def timed(src: Path, out: Path, size: int, workers: int) -> float:
-    t = time.perf_counter()
-    run_import(out, build(ImportConfig, sources=(str(src),), size=size), workers=workers)
-    return time.perf_counter() - t
+def import_s(src: Path, out: Path, size: int, workers: int) -> float:
+    """Wall seconds of one whole `run_import`."""
+    return timed(lambda: run_import(out, build(ImportConfig, sources=(str(src),), size=size), workers=workers)).wall_s
 
 
 def main(argv=None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--materials", type=int, default=4, help="distinct materials written (half of each layout)")
     ap.add_argument("--copies", type=int, default=8,
                     help="each imported this many times (symlinked folders with their own names; page-cached reads)")
     ap.add_argument("--source-size", type=int, default=2048)
     ap.add_argument("--size", type=int, default=256)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks/results/import.json"))
+    ap.add_argument("--out", default=str(RESULTS / "import.json"))
     a = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="bench-import-"))
     try:
-        t = time.perf_counter()
-        write_sources(tmp / "distinct", a.materials, a.source_size)
-        gen_s = time.perf_counter() - t
+        gen_s = timed(lambda: write_sources(tmp / "distinct", a.materials, a.source_size)).wall_s
         (tmp / "src").mkdir()
         for d in sorted((tmp / "distinct").iterdir()):
             for k in range(a.copies):
                 (tmp / "src" / f"{d.name}_copy{k}").symlink_to(d, target_is_directory=True)
         n = a.materials * a.copies
-        one = timed(tmp / "src", tmp / "w0.zarr", a.size, 0)
-        two = timed(tmp / "src", tmp / "w2.zarr", a.size, 2)
+        one = import_s(tmp / "src", tmp / "w0.zarr", a.size, 0)
+        two = import_s(tmp / "src", tmp / "w2.zarr", a.size, 2)
         per_layout = {}
         for tag, pattern in (("ambientcg_jpeg", "Ground*"), ("matsynth_png", "matsynth_*")):
             sub = tmp / tag
@@ -101,19 +95,10 @@ def main(argv=None) -> dict:
             for d in sorted((tmp / "distinct").glob(pattern)):
                 d.rename(sub / d.name)
             k = len(list(sub.iterdir()))
-            t1 = timed(sub, tmp / f"{tag}.zarr", a.size, 0)
+            t1 = import_s(sub, tmp / f"{tag}.zarr", a.size, 0)
             # the least of 3 timings of the conversion alone: the figure least disturbed by other jobs
-            from pipeline.importer.convert import convert
-            from pipeline.importer.discover import find_folders
-
-            best = []
-            for m in find_folders([sub], "auto"):
-                ts = []
-                for _ in range(3):
-                    t0 = time.perf_counter()
-                    convert(m, a.size, False, "auto", 0.02)
-                    ts.append(time.perf_counter() - t0)
-                best.append(min(ts))
+            best = [min(timed(lambda: convert(m, a.size, False, "auto", 0.02)).wall_s for _ in range(3))
+                    for m in find_folders([sub], "auto")]
             per_layout[tag] = {"materials": k, "workers_0_s_per_material": round(t1 / k, 3),
                                "convert_min_of_3_s": round(float(np.mean(best)), 3),
                                "projected_2_cores_materials_per_s": round(2 / float(np.mean(best)), 2)}
@@ -127,11 +112,10 @@ def main(argv=None) -> dict:
                       "matsynth_4069_minutes": round(4069 / (n / two) / 60, 1)},
         "per_layout_one_process": per_layout,
         "bar_materials_per_s": BAR, "meets_bar": n / two >= BAR,
-        "fixture_write_s": round(gen_s, 1), "cpus": os.cpu_count(), "python": platform.python_version(),
-        "note": "measured on a machine shared with other jobs (2 cores, 5 concurrent sessions): rerun quietly; "
-                "workers_2 includes starting the dask cluster (~3 s)",
+        "fixture_write_s": round(gen_s, 1),
+        "timing_note": "workers_2 includes starting the dask cluster (~3 s)",
     }
-    Path(a.out).write_text(json.dumps(res, indent=1) + "\n")
+    write_results(a.out, res, note=a.note)
     print(json.dumps(res, indent=1))
     return res
 

@@ -11,22 +11,17 @@ Writes benchmarks/results/materials.json. Usage: python3 benchmarks/bench_materi
 """
 from __future__ import annotations
 
-import argparse
 import json
 import multiprocessing as mp
 import os
-import platform
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from materials import presets
+from materials.catalog import stats
 
-from materials import presets  # noqa: E402
-from materials.catalog import stats  # noqa: E402
+from harness import RESULTS, parser, write_results
 
 SIZE = 256
 BAR = 15.0
@@ -42,20 +37,10 @@ def variant(i: int) -> float:
     return float(m.diffuse[0, 0, 0] + m.roughness[-1, -1, 0])
 
 
-def _cpu_model() -> str:
-    try:
-        for ln in Path("/proc/cpuinfo").read_text().splitlines():
-            if ln.startswith("model name"):
-                return ln.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor()
-
-
 def main(argv=None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--rounds", type=int, default=3, help="passes over all presets per measurement")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks/results/materials.json"))
+    ap.add_argument("--out", default=str(RESULTS / "materials.json"))
     a = ap.parse_args(argv)
     n_pre = len(presets())
     n = a.rounds * n_pre
@@ -84,15 +69,8 @@ def main(argv=None) -> dict:
         "bar_variants_per_s": BAR, "passes_bar": bool(two >= BAR),
         "paper_1850_variants_s": round(1850 / two, 1),
         "ms_per_variant_by_class_1proc": {k: round(1000 * float(np.mean(v)), 1) for k, v in sorted(per_class.items())},
-        "machine": {"cpu": _cpu_model(), "cpu_count": os.cpu_count(), "python": platform.python_version(),
-                    "numpy": np.__version__, "platform": platform.platform(),
-                    # other work on the machine slows the figures down: keep the load next to them
-                    "loadavg_1min_at_end": round(os.getloadavg()[0], 2)},
-        "command": "python3 benchmarks/bench_materials.py" + (f" --rounds {a.rounds}" if a.rounds != 3 else ""),
     }
-    out = Path(a.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=2) + "\n")
+    write_results(a.out, res, a.note)
     print(json.dumps(res, indent=2))
     return res
 

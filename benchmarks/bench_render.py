@@ -18,29 +18,27 @@ Writes benchmarks/results/render.json. Usage: python3 benchmarks/bench_render.py
 """
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import json
 import os
-import platform
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from materials import registry
+from materials.maps import MAP_SLICES, encode_normal, pack_maps
+from pipeline.config import RenderConfig, SampleConfig
+from pipeline.render.scene import FlashScene
+from pipeline.render.stage import run_render
+from pipeline.render.store import RendersReader
+from pipeline.render.views import planes_of, transform_planes
+from pipeline.sample import run_sample
+from svcore.config import build
 
-from materials import registry  # noqa: E402
-from pipeline.config import SampleConfig, build  # noqa: E402
-from pipeline.render.encoding import decode_srgb8  # noqa: E402
-from pipeline.render.scene import FlashScene  # noqa: E402
-from pipeline.render.stage import RenderConfig, run_render  # noqa: E402
-from pipeline.render.store import RendersReader  # noqa: E402
-from pipeline.render.views import planes_of, transform_planes  # noqa: E402
-from pipeline.sample import run_sample  # noqa: E402
+from harness import RESULTS, parser, timed, write_results
 
 PAPER_CPU_S_PER_VIEW = 11.5  # 16 h on 40 CPUs for ~200,000 views (DESIGN.md)
 PAPER_BYTES_PER_VIEW = 425_000  # 85 GB of PNGs for ~200,000 288^2 samples
@@ -57,18 +55,25 @@ def zstd_bytes(a: np.ndarray) -> int:
     return len(Zstd(level=5).encode(np.ascontiguousarray(a)))
 
 
+def _decode_stored(blob: bytes, shape: tuple) -> np.ndarray:
+    """Read maps stored per view (uint16, zstd): decode every channel, normals back to [-1, 1]."""
+    from numcodecs import Zstd
+
+    b = np.frombuffer(Zstd().decode(blob), np.uint16).reshape(shape).astype(np.float32) / 65535
+    return b[..., MAP_SLICES["normal"]] * 2 - 1
+
+
 def _timed(task, c: int, threads: int) -> dict:
     """Run one chunk task in a worker and measure the worker process's CPU time around it."""
-    t0, c0 = time.perf_counter(), time.process_time()
-    views = task(c, threads)
-    return {"pid": os.getpid(), "t0": t0, "views": views, "cpu": time.process_time() - c0,
-            "wall": time.perf_counter() - t0}
+    t0 = time.perf_counter()
+    views, cpu, wall = timed(lambda: task(c, threads))
+    return {"pid": os.getpid(), "t0": t0, "views": views, "cpu": cpu, "wall": wall}
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--quick", action="store_true", help="3 SVBRDFs, no reference (smoke run)")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "render.json"))
+    ap.add_argument("--out", default=str(RESULTS / "render.json"))
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="svgen-bench-render-"))
     try:
@@ -85,14 +90,9 @@ def main(argv=None) -> int:
         first = tmp / "first.zarr"
         one = tmp / "one.zarr"
         run_sample(one, build(SampleConfig, "default", presets=presets[:1], per_preset=1, size=256), workers=0)
-        c0 = time.process_time()
-        run_render(one, first, cfg, workers=0)
-        cpu_first_chunk = time.process_time() - c0
+        cpu_first_chunk = timed(lambda: run_render(one, first, cfg, workers=0)).cpu_s
         out = tmp / "renders.zarr"
-        c0, w0 = time.process_time(), time.perf_counter()
-        run_render(variants, out, cfg, workers=0)
-        cpu = time.process_time() - c0
-        wall = time.perf_counter() - w0
+        _, cpu, wall = timed(lambda: run_render(variants, out, cfg, workers=0))
         inproc_cpu_s_per_view = cpu / n_views  # scene already loaded and compiled in this process (steady state)
 
         # 2-3. dask, 2 local workers, CPU time measured inside the workers around each task
@@ -131,10 +131,9 @@ def main(argv=None) -> int:
         # 5. storage alternatives: aligned maps stored per view vs recomputed
         stored16, stored8, t_recompute, t_stored = [], [], [], []
         for i in range(len(r1)):
-            t = time.perf_counter()
-            m = r1.maps(i)
-            t_recompute.append(time.perf_counter() - t)
-            a = np.concatenate([(m.normal + 1) / 2, m.diffuse, m.specular, m.roughness], -1)
+            m, _, dt = timed(lambda: r1.maps(i))
+            t_recompute.append(dt)
+            a = pack_maps(dataclasses.replace(m, normal=encode_normal(m.normal)))  # as stored: normals (n+1)/2
             q16 = np.round(np.clip(a, 0, 1) * 65535).astype(np.uint16)
             q8 = np.round(np.clip(a, 0, 1) * 255).astype(np.uint8)
             stored16.append(zstd_bytes(q16))
@@ -142,10 +141,7 @@ def main(argv=None) -> int:
             from numcodecs import Zstd
 
             blob = Zstd(level=5).encode(q16)
-            t = time.perf_counter()
-            b = np.frombuffer(Zstd().decode(blob), np.uint16).reshape(q16.shape).astype(np.float32) / 65535
-            _ = b[..., 0:3] * 2 - 1
-            t_stored.append(time.perf_counter() - t)
+            t_stored.append(timed(lambda: _decode_stored(blob, q16.shape)).wall_s)
         storage = {
             "decision": "recompute aligned maps from stored base maps + view transform",
             "recomputed": {"bytes_per_view": total / n_views, "read_s_per_view": float(np.median(t_recompute))},
@@ -196,11 +192,9 @@ def main(argv=None) -> int:
             "paper_bytes_per_view": PAPER_BYTES_PER_VIEW,
             **accuracy, "rel_rmse_vs_reference_note": accuracy and "8-bit sRGB stored image vs converged reference",
             "storage": storage,
-            "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "python": platform.python_version()},
             "quick": args.quick,
         }
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(json.dumps(result, indent=1))
+        write_results(args.out, result, args.note)
         print(json.dumps({k: v for k, v in result.items() if k not in ("storage", "bytes_per_view_by_array")}, indent=1))
         print(json.dumps(storage, indent=1))
     finally:

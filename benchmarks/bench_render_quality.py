@@ -21,25 +21,17 @@ Writes benchmarks/results/render_quality.json and .csv. Usage: python3 benchmark
 """
 from __future__ import annotations
 
-import argparse
-import csv
 import json
-import platform
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from materials import registry
+from pipeline.render.scene import FlashScene, scene_constants
+from pipeline.render.views import draw_view, planes_of, transform_planes
+from svcore.seeds import rng_for
 
-from materials import registry  # noqa: E402
-from pipeline.render.scene import FlashScene, scene_constants  # noqa: E402
-from pipeline.render.views import draw_view, planes_of, transform_planes  # noqa: E402
-from pipeline.seeds import rng_for  # noqa: E402
-
-import drjit as dr  # noqa: E402
+from harness import RESULTS, parser, timed, write_csv, write_results
 
 RESOLUTIONS = (128, 256)
 REF_PASSES = 8  # x 64 spp = 512 spp, stratified
@@ -73,20 +65,10 @@ def reference(res: int, planes, view, passes: int) -> tuple[np.ndarray, float]:
     return ref, noise
 
 
-def timed(f, reps: int):
-    cpu, wall, out = [], [], None
-    for _ in range(reps):
-        c, w = time.process_time(), time.perf_counter()
-        out = f()
-        cpu.append(time.process_time() - c)
-        wall.append(time.perf_counter() - w)
-    return out, float(np.median(cpu)), float(np.median(wall))
-
-
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "render_quality"))
+    ap.add_argument("--out", default=str(RESULTS / "render_quality"), help="results path without suffix")
     args = ap.parse_args(argv)
     passes = 2 if args.quick else REF_PASSES
     mats = materials(args.quick)
@@ -96,12 +78,11 @@ def main(argv=None) -> int:
         planes = [transform_planes(planes_of(m), BASE, v, res) for (_, m), v in zip(mats, views)]
         refs = []
         for (name, _), p, v in zip(mats, planes, views):
-            t = time.perf_counter()
-            ref, noise = reference(res, p, v, passes)
+            (ref, noise), _, ref_wall = timed(lambda: reference(res, p, v, passes))
             refs.append(ref)
             refs_info.append({"res": res, "material": name, "view": v.as_dict(), "ref_spp": 64 * passes,
-                              "ref_rel_noise": noise, "ref_wall_s": time.perf_counter() - t})
-            print(f"ref res={res} {name}: noise {noise:.4%} ({time.perf_counter() - t:.1f} s)", flush=True)
+                              "ref_rel_noise": noise, "ref_wall_s": ref_wall})
+            print(f"ref res={res} {name}: noise {noise:.4%} ({ref_wall:.1f} s)", flush=True)
         ref_noise = float(np.sqrt(np.mean([r["ref_rel_noise"] ** 2 for r in refs_info if r["res"] == res])))
         for light, sampler, spp in CANDIDATES:
             scene = FlashScene(res, spp, light, sampler)
@@ -136,20 +117,13 @@ def main(argv=None) -> int:
     result = {
         "benchmark": "render_quality", "threshold_rel_rmse": THRESHOLD, "chosen": chosen,
         "materials": [n for n, _ in mats], "scene": scene_constants(), "references": refs_info, "candidates": rows,
-        "machine": {"platform": platform.platform(), "python": platform.python_version(),
-                    "drjit_threads": dr.thread_count()},
         "quick": args.quick,
     }
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".json").write_text(json.dumps(result, indent=1))
-    with open(out.with_suffix(".csv"), "w", newline="") as f:
-        w = csv.writer(f)
-        cols = ["res", "light", "sampler", "spp", "cpu_s_per_view", "wall_s_per_view", "rel_rmse", "rel_rmse_max",
-                "rel_rmse_noise_corrected"]
-        w.writerow(cols)
-        for r in rows:
-            w.writerow([r[c] for c in cols])
+    write_results(out.with_suffix(".json"), result, args.note)
+    cols = ["res", "light", "sampler", "spp", "cpu_s_per_view", "wall_s_per_view", "rel_rmse", "rel_rmse_max",
+            "rel_rmse_noise_corrected"]
+    write_csv(out.with_suffix(".csv"), ({c: r[c] for c in cols} for r in rows))
     print("chosen:", json.dumps(chosen))
     return 0
 

@@ -10,24 +10,16 @@ excluded), plus whether every store is byte-identical to the 1-worker store.
 """
 from __future__ import annotations
 
-import json
 import os
-import platform
 import shutil
 import socket
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
+from harness import RESULTS, parser, timed, tree_digest, write_results
 
-from conftest import tree_digest  # noqa: E402
-
-RESULTS = ROOT / "benchmarks" / "results" / "scaleout.json"
 N_PRESET = 6  # x 2 variants = 12 SVBRDFs
 
 
@@ -38,18 +30,19 @@ def _free_port() -> int:
 
 
 def _render(inp: Path, out: Path, extra: list[str]) -> float:
+    """Wall seconds of one ``svgen render`` command."""
     env = {**os.environ, "SVGEN_NO_PROGRESS": "1"}
-    t = time.perf_counter()
-    subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()", "render", str(inp), str(out),
-                    "--chunk", "1", *extra], check=True, env=env, capture_output=True)
-    return time.perf_counter() - t
+    return timed(lambda: subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()", "render",
+                                         str(inp), str(out), "--chunk", "1", *extra],
+                                        check=True, env=env, capture_output=True)).wall_s
 
 
 def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
     """views/s with the cluster already running: chunk tasks only (first task per worker excluded)."""
-    from pipeline.config import build
+    from svcore.config import build
     from pipeline.parallel import dask_client, run_chunks
-    from pipeline.render.stage import RenderConfig, chunk_task, render_writer
+    from pipeline.config import RenderConfig
+    from pipeline.render.stage import chunk_task, render_writer
 
     cfg = build(RenderConfig)
     writer, n = render_writer(inp, out, cfg)
@@ -59,15 +52,17 @@ def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
         warm = todo[:max(1, len(client.scheduler_info()["workers"]))]
         client.gather(client.map(task, warm, [1] * len(warm), pure=False))
         rest = todo[len(warm):]
-        t = time.perf_counter()
-        client.gather(client.map(task, rest, [max(1, (os.cpu_count() or 1) // max(1, workers))] * len(rest),
-                                 pure=False))
-        dt = time.perf_counter() - t
+        threads = [max(1, (os.cpu_count() or 1) // max(1, workers))] * len(rest)
+        dt = timed(lambda: client.gather(client.map(task, rest, threads, pure=False))).wall_s
     return len(rest) * cfg.views / dt
 
 
-def main() -> None:
-    from pipeline.config import SampleConfig, build
+def main(argv=None) -> None:
+    ap = parser(__doc__)
+    ap.add_argument("--out", default=str(RESULTS / "scaleout.json"))
+    args = ap.parse_args(argv)
+    from pipeline.config import SampleConfig
+    from svcore.config import build
     from pipeline.sample import run_sample
 
     import materials
@@ -109,10 +104,8 @@ def main() -> None:
         ref = tree_digest(tmp / "local1.zarr")
         identical = all(tree_digest(tmp / n) == ref for n in ("local2.zarr", "dist.zarr"))
         res = {"benchmark": "render_scaleout", "svbrdfs": len(presets) * 2, "views": n_views, "res": 256,
-               "rows": rows, "stores_identical": identical,
-               "load_average_at_end": os.getloadavg(),
-               "machine": {"platform": platform.platform(), "cpus": os.cpu_count()}}
-        RESULTS.write_text(json.dumps(res, indent=1) + "\n")
+               "rows": rows, "stores_identical": identical}
+        write_results(args.out, res, args.note)
         for r in rows:
             print(f"{r['config']:50s} {r['views_per_s_total']:6.1f} views/s total, {r['views_per_s_steady']:6.1f} steady")
         print("identical stores:", identical)

@@ -7,25 +7,21 @@ The eval-after-budget table is measured by ``svtrain fit`` + ``svtrain eval`` on
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
-import platform
 import resource
-import sys
 import time
-from pathlib import Path
 
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from train.config import resolve
+from train.data import PairDataset, make_loader, split_by_source
+from train.fit import build, train_step
+from train.loss import make_loss
+from train.net import count_parameters
+from train.synthetic import SyntheticSource
 
-from train.config import resolve  # noqa: E402
-from train.data import PairDataset, make_loader, split_by_source  # noqa: E402
-from train.fit import build, train_step  # noqa: E402
-from train.loss import make_loss  # noqa: E402
-from train.net import count_parameters  # noqa: E402
-from train.synthetic import SyntheticSource  # noqa: E402
+from harness import RESULTS, parser, write_results
 
 
 def bench_steps(cfg, src, train_idx, steps: int, compile_loss: bool) -> dict:
@@ -69,12 +65,12 @@ def bench_loader(cfg, src, train_idx, batches: int, workers: int) -> float:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--no-compile", action="store_true")
-    ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "train.json"))
+    ap.add_argument("--out", default=str(RESULTS / "train.json"))
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
     cfg = resolve("compact", None, {})
@@ -90,11 +86,9 @@ def main(argv=None) -> None:
            "loader_samples_per_s": round(loader, 1), "loader_workers": a.workers,
            "consumed_samples_per_s": round(consumption, 1), "loader_vs_consumption": round(loader / consumption, 2),
            "peak_rss_gb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6, 3),
-           "load_average_before": round(load0, 2), "load_average_after": round(os.getloadavg()[0], 2),
-           "cpus": os.cpu_count(), "machine": platform.machine(), "torch": torch.__version__,
+           "load_average_before": round(load0, 2),
            "bars": {"it_per_s": 2.0, "loader_vs_consumption": 5.0}}
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(a.out).write_text(json.dumps(out, indent=2) + "\n")
+    write_results(a.out, out, a.note)
     print(json.dumps(out, indent=2))
 
 

@@ -24,11 +24,8 @@ Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/res
 """
 from __future__ import annotations
 
-import argparse
-import csv
 import json
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -37,15 +34,14 @@ import numpy as np
 import psutil
 import torch
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from train.config import parse_overrides, preset, resolve
+from train.data import PairDataset, make_loader, open_source, packed_maps, split_by_source
+from train.evaluate import COLUMNS, evaluate, markdown, metrics, train_means
+from train.fit import _seeded, build, lr_at, train_step
+from train.loss import make_loss
+from train.net import count_parameters
 
-from train.config import parse_overrides, preset, resolve  # noqa: E402
-from train.data import PairDataset, make_loader, open_source, packed_maps, split_by_source  # noqa: E402
-from train.evaluate import COLUMNS, evaluate, markdown, metrics, train_means  # noqa: E402
-from train.fit import _seeded, build, lr_at, train_step  # noqa: E402
-from train.loss import make_loss  # noqa: E402
-from train.net import count_parameters  # noqa: E402
+from harness import IMG, RESULTS, ROOT, parser, write_csv, write_results
 
 BASELINES = ("input_as_diffuse", "dataset_mean")
 #: eval points as fractions of the budget (plus step 0).
@@ -265,23 +261,24 @@ def choose(rows: list[dict], key: str, tol: float) -> int:
     return rows[-1]["base_width"]
 
 
-def write_csv(path: Path, rows: list[dict], baselines: dict) -> None:
-    cols = ["series", "base_width", "parameters", "wall_s", "cpu_s", "steps", "train_loss", *COLUMNS, "mean_rmse"]
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(cols)
-        for r in rows:
-            for p in r["points"]:
-                w.writerow([f"width_{r['base_width']}", r["base_width"], r["parameters"], p["wall_s"], p["cpu_s"],
-                            p["steps"], "" if p["train_loss"] is None else f"{p['train_loss']:.5f}",
-                            *(f"{p[c]:.5f}" for c in COLUMNS), f"{p['mean_rmse']:.5f}"])
-        for name, m in baselines.items():
-            w.writerow([name, "", "", "", "", "", "", *(f"{m[c]:.5f}" for c in COLUMNS),
-                        f"{np.mean([m[c] for c in COLUMNS]):.5f}"])
+def csv_rows(rows: list[dict], baselines: dict) -> list[dict]:
+    """The CSV beside train_budget.json: one row per eval point of each width, then one per baseline."""
+    out = []
+    for r in rows:
+        for p in r["points"]:
+            out.append({"series": f"width_{r['base_width']}", "base_width": r["base_width"],
+                        "parameters": r["parameters"], "wall_s": p["wall_s"], "cpu_s": p["cpu_s"], "steps": p["steps"],
+                        "train_loss": "" if p["train_loss"] is None else f"{p['train_loss']:.5f}",
+                        **{c: f"{p[c]:.5f}" for c in COLUMNS}, "mean_rmse": f"{p['mean_rmse']:.5f}"})
+    for name, m in baselines.items():
+        out.append({"series": name, "base_width": "", "parameters": "", "wall_s": "", "cpu_s": "", "steps": "",
+                    "train_loss": "", **{c: f"{m[c]:.5f}" for c in COLUMNS},
+                    "mean_rmse": f"{np.mean([m[c] for c in COLUMNS]):.5f}"})
+    return out
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--store", default=str(ROOT / "data" / "renders.zarr"))
     ap.add_argument("--widths", type=int, nargs="+", default=[8, 16, 32])
     ap.add_argument("--budget-s", type=float, default=600.0, help="training wall seconds per width")
@@ -305,8 +302,8 @@ def main(argv=None) -> None:
     ap.add_argument("--eval-views", type=int, default=200, help="held-out views evaluated (evenly spaced subset)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--tol", type=float, default=0.05, help="'within a few %%' of the width rule")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results"), help="output folder")
-    ap.add_argument("--png", default=str(ROOT / "docs" / "img" / "chart_training.png"), help="chart ('' = none)")
+    ap.add_argument("--out", default=str(RESULTS), help="output folder")
+    ap.add_argument("--png", default=str(IMG / "chart_training.png"), help="chart ('' = none)")
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
     t_all = time.time()
@@ -369,12 +366,10 @@ def main(argv=None) -> None:
            "tolerance": a.tol, "chosen_base_width": chosen,
            "rule": "smallest width whose eval error at the end of the budget is within tolerance of the next "
                    "larger width's (rerender RMSE; mean of the five columns alongside)",
-           "cpus": os.cpu_count(), "machine": platform.machine(), "torch": torch.__version__,
-           "load1_end": round(os.getloadavg()[0], 2), "total_wall_s": round(time.time() - t_all, 1)}
-    (out / "train_budget.json").write_text(json.dumps(res, indent=2) + "\n")
-    write_csv(out / "train_budget.csv", rows, baselines)
+           "total_wall_s": round(time.time() - t_all, 1)}
+    write_results(out / "train_budget.json", res, a.note)
+    write_csv(out / "train_budget.csv", csv_rows(rows, baselines))
     if a.png:
-        sys.path.insert(0, str(Path(__file__).parent))
         from charts_training import plot
 
         plot(out / "train_budget.json", a.png)

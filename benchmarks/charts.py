@@ -12,38 +12,25 @@ A chart whose results file is missing is skipped with a note (run its benchmark 
 """
 from __future__ import annotations
 
-import csv
-import importlib.util
+import importlib
 import json
 import sys
 from pathlib import Path
 
-import matplotlib
+from harness import IMG, RESULTS, ROOT, parser, pyplot, save_figure, write_csv
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[1]
-RES = ROOT / "benchmarks" / "results"
-IMG = ROOT / "docs" / "img"
-CSV = RES
-
-
-def _write_csv(path: Path, rows: list[dict]) -> None:
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+plt = pyplot()
+CSV = RESULTS  # --out sends the PNGs and CSVs into one folder
 
 
 def chart_render() -> Path | None:
-    src = RES / "render_quality.json"
+    src = RESULTS / "render_quality.json"
     if not src.exists():
         return None
     d = json.loads(src.read_text())
     rows = [{k: c[k] for k in ("res", "light", "sampler", "spp", "cpu_s_per_view", "rel_rmse")}
             for c in d["candidates"]]
-    _write_csv(CSV / "chart_render.csv", rows)
+    write_csv(CSV / "chart_render.csv", rows)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     styles = {"point": "o", "sphere": "s"}
     colours = {128: "tab:blue", 256: "tab:orange"}
@@ -68,12 +55,12 @@ def chart_render() -> Path | None:
 
 
 def chart_scaleout() -> Path | None:
-    src = RES / "scaleout.json"
+    src = RESULTS / "scaleout.json"
     if not src.exists():
         return None
     d = json.loads(src.read_text())
     rows = [{k: r[k] for k in ("config", "workers", "views_per_s_total", "views_per_s_steady")} for r in d["rows"]]
-    _write_csv(CSV / "chart_scaleout.csv", rows)
+    write_csv(CSV / "chart_scaleout.csv", rows)
     fig, ax = plt.subplots(figsize=(7, 3.5))
     y = range(len(rows))
     ax.barh([i + 0.2 for i in y], [r["views_per_s_steady"] for r in rows], height=0.4, label="steady state")
@@ -92,14 +79,13 @@ def chart_stress() -> Path | None:
     paths = {"heldout": ROOT / "runs" / "eval" / "eval.json", "stress": ROOT / "runs" / "eval_stress" / "eval.json"}
     if not all(p.exists() for p in paths.values()):
         return None
-    sys.path.insert(0, str(ROOT))
     from train.eval_chart import groups_of, plot_eval
 
     groups = {}
     for name, p in paths.items():
         groups.update({f"{name}: {g}" if name == "heldout" else g: r
                        for g, r in groups_of(json.loads(p.read_text())).items()})
-    _write_csv(CSV / "chart_stress.csv", [{"group": g, "method": m, **r[m]} for g, r in groups.items()
+    write_csv(CSV / "chart_stress.csv", [{"group": g, "method": m, **r[m]} for g, r in groups.items()
                                           for m in ("model", "input_as_diffuse", "dataset_mean")])
     return plot_eval(groups, IMG / "chart_stress.png", "Stress categories beside the held-out test set "
                      "(dvc repro default model; bar labels: views)")
@@ -107,29 +93,19 @@ def chart_stress() -> Path | None:
 
 def _external(module: str, func: str, json_name: str, png: str) -> Path | None:
     """Charts whose plotting lives beside their benchmark: ``func(json_path, png_path)``."""
-    path = ROOT / "benchmarks" / f"{module}.py"
-    if not path.exists() or not (RES / json_name).exists():
+    if not (RESULTS / json_name).exists():
         return None
-    spec = importlib.util.spec_from_file_location(module, path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    getattr(mod, func)(RES / json_name, IMG / png)
+    getattr(importlib.import_module(module), func)(RESULTS / json_name, IMG / png)
     return IMG / png
 
 
 def _save(fig, name: str) -> Path:
-    IMG.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(IMG / name, dpi=110)
-    plt.close(fig)
-    return IMG / name
+    return save_figure(fig, IMG / name, dpi=110)
 
 
 def main(argv=None) -> int:
-    import argparse
-
     global IMG, CSV
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__, note=False)
     ap.add_argument("--out", type=Path, default=None, help="write PNGs and CSVs into this folder")
     args = ap.parse_args(argv)
     if args.out is not None:

@@ -13,9 +13,10 @@ import json
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_JSON = ROOT / "benchmarks" / "results" / "agreement.json"
-DEFAULT_PNG = ROOT / "docs" / "img" / "chart_agreement.png"
+from harness import IMG, RESULTS, pyplot, save_figure
+
+DEFAULT_JSON = RESULTS / "agreement.json"
+DEFAULT_PNG = IMG / "chart_agreement.png"
 
 
 def chart_agreement(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PNG) -> Path:
@@ -30,9 +31,7 @@ def chart_agreement(json_path: str | Path = DEFAULT_JSON, png_path: str | Path =
     """
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     data = json.loads(Path(json_path).read_text())
     rows = data["settings"]
     by = {s: sorted((r for r in rows if r["sampler"] == s), key=lambda r: r["spp"]) for s in ("independent", "centre")}
@@ -79,12 +78,7 @@ def chart_agreement(json_path: str | Path = DEFAULT_JSON, png_path: str | Path =
     bx.set_title("error against render time")
     bx.legend(fontsize=7)
     bx.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    png = Path(png_path)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
-    return png
+    return save_figure(fig, png_path, dpi=120)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 Reads the JSON of ``benchmarks/bench_train_budget.py``; baselines are horizontal lines, the compact default is
 drawn heavier, with a star at its end of budget. A DVC charts stage can rebuild the PNG from the JSON alone:
 
-    python3 benchmarks/charts_training.py benchmarks/results/train_budget.json docs/img/chart_training.png
+    python3 benchmarks/charts_training.py [benchmarks/results/train_budget.json [docs/img/chart_training.png]]
 """
 from __future__ import annotations
 
@@ -11,17 +11,18 @@ import json
 import sys
 from pathlib import Path
 
+from harness import IMG, RESULTS, pyplot, save_figure
+
+DEFAULT_JSON = RESULTS / "train_budget.json"
+DEFAULT_PNG = IMG / "chart_training.png"
+
 BASELINE_STYLE = {"input_as_diffuse": ("input as diffuse", "0.35", "--"),
                   "dataset_mean": ("dataset mean", "0.6", ":")}
 
 
-def plot(json_path, png_path) -> Path:
+def plot(json_path=DEFAULT_JSON, png_path=DEFAULT_PNG) -> Path:
     """Render the chart of ``json_path`` (bench_train_budget output) to ``png_path``; returns the PNG path."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     res = json.loads(Path(json_path).read_text())
     default = res.get("compact_default")
     fig, ax = plt.subplots(figsize=(7, 5.0), dpi=110)
@@ -52,15 +53,10 @@ def plot(json_path, png_path) -> Path:
     ax.grid(alpha=0.3)
     ax.set_xlim(left=0)
     ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
-    fig.tight_layout()
-    png = Path(png_path)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(png)
-    plt.close(fig)
-    return png
+    return save_figure(fig, png_path)
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        sys.exit("usage: charts_training.py TRAIN_BUDGET_JSON PNG")
-    print(plot(sys.argv[1], sys.argv[2]))
+    if len(sys.argv) > 3:
+        sys.exit("usage: charts_training.py [TRAIN_BUDGET_JSON [PNG]]")
+    print(plot(*sys.argv[1:]))

@@ -17,26 +17,20 @@ objective; only the loss differs.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import multiprocessing
-import sys
-import time
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
 import torch
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "benchmarks"))
+from train.config import resolve
+from train.data import PairDataset, make_loader, open_source, split_by_source
+from train.fit import build, lr_at, train_step
+from train.loss import make_loss
 
-from probe_normals import prediction_stats  # noqa: E402
-from train.config import resolve  # noqa: E402
-from train.data import PairDataset, make_loader, open_source, split_by_source  # noqa: E402
-from train.fit import build, lr_at, train_step  # noqa: E402
-from train.loss import make_loss  # noqa: E402
+from harness import RESULTS, ROOT, parser, timed, write_results
+from probe_normals import prediction_stats
 
 OBJECTIVES = ("normal_l1", "normal_l2", "render", "render+normal_l2=100")
 
@@ -52,22 +46,26 @@ def run(objective: str, store: str, steps: int, every: int) -> dict:
     loss_fn = make_loss(cfg.optim.compile_loss) if objective.startswith("render") else None
     o = cfg.optim
     model.train()
-    t0, losses = time.perf_counter(), []
-    for step, (img, maps) in enumerate(make_loader(ds, o.batch_size, 0, steps, cfg.data.workers)):
-        if loss_fn is not None:
-            loss, _ = train_step(model, opt, loss_fn, img, maps, gen, o, step)
-        else:  # the same schedule and clipping as train_step, a direct loss on the normals instead of renderings
-            for group in opt.param_groups:
-                group["lr"] = lr_at(o, step)
-            d = model(img)[:, 0:2] - maps[:, 0:2]
-            value = d.abs().mean() if objective == "normal_l1" else (d * d).mean()
-            opt.zero_grad(set_to_none=True)
-            value.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), o.grad_clip)
-            opt.step()
-            loss = float(value.detach())
-        losses.append(loss)
-    train_s = time.perf_counter() - t0
+
+    def train() -> list[float]:
+        losses = []
+        for step, (img, maps) in enumerate(make_loader(ds, o.batch_size, 0, steps, cfg.data.workers)):
+            if loss_fn is not None:
+                loss, _ = train_step(model, opt, loss_fn, img, maps, gen, o, step)
+            else:  # the same schedule and clipping as train_step, a direct loss on the normals instead of renderings
+                for group in opt.param_groups:
+                    group["lr"] = lr_at(o, step)
+                d = model(img)[:, 0:2] - maps[:, 0:2]
+                value = d.abs().mean() if objective == "normal_l1" else (d * d).mean()
+                opt.zero_grad(set_to_none=True)
+                value.backward()
+                torch.nn.utils.clip_grad_norm_(model.parameters(), o.grad_clip)
+                opt.step()
+                loss = float(value.detach())
+            losses.append(loss)
+        return losses
+
+    losses, _, train_s = timed(train)
     model.eval()
     return {"objective": objective, "steps": steps, "train_s": round(train_s, 1),
             "loss_last_100": float(np.mean(losses[-100:])),
@@ -76,12 +74,12 @@ def run(objective: str, store: str, steps: int, every: int) -> dict:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--store", default=str(ROOT / "data" / "renders.zarr"))
     ap.add_argument("--steps", type=int, default=800)
     ap.add_argument("--objectives", nargs="+", default=list(OBJECTIVES))
     ap.add_argument("--every", type=int, default=4, help="every k-th held-out view (training: every 20k-th)")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "normal_supervision.json"))
+    ap.add_argument("--out", default=str(RESULTS / "normal_supervision.json"))
     a = ap.parse_args(argv)
     bad = [x for x in a.objectives if x not in OBJECTIVES and not x.startswith("render+normal_l2=")]
     if bad:
@@ -93,10 +91,7 @@ def main(argv=None) -> None:
         with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
             rows.append(ex.submit(run, obj, a.store, a.steps, a.every).result())
         print(json.dumps(rows[-1]), flush=True)
-    res = {"command": "python3 benchmarks/probe_normal_supervision.py " + " ".join(argv if argv is not None
-                                                                                  else sys.argv[1:]),
-           "store": a.store, "torch": torch.__version__, "runs": rows}
-    Path(a.out).write_text(json.dumps(res, indent=2) + "\n")
+    write_results(a.out, {"store": a.store, "runs": rows}, a.note)
     print("objective                  held-out normal RMSE (flat)   correlation   train RMSE (flat)")
     for r in rows:
         h, t = r["heldout"], r["train"]

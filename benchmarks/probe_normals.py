@@ -13,20 +13,16 @@
 """
 from __future__ import annotations
 
-import argparse
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import torch
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from train.checkpoint import load_model
+from train.data import PairDataset, open_source, packed_maps, split_by_source
+from train.render import flash_render
 
-from train.checkpoint import load_model  # noqa: E402
-from train.data import PairDataset, open_source, packed_maps, split_by_source  # noqa: E402
-from train.render import flash_render  # noqa: E402
+from harness import RESULTS, ROOT, parser, write_results
 
 
 def data_signal(src, n: int, seed: int, min_energy: float = 0.005) -> dict:
@@ -75,12 +71,12 @@ def prediction_stats(model, src, indices, crop: int) -> dict:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--checkpoint", default=str(ROOT / "runs" / "train"))
     ap.add_argument("--store", default=None, help="renders store (default: the checkpoint's training store)")
     ap.add_argument("--views", type=int, default=60, help="views drawn for the data check")
     ap.add_argument("--every", type=int, default=4, help="every k-th view of each split for the model check")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "normals_probe.json"))
+    ap.add_argument("--out", default=str(RESULTS / "normals_probe.json"))
     a = ap.parse_args(argv)
     torch.set_num_threads(2)
     model, cfg = load_model(a.checkpoint)
@@ -89,12 +85,11 @@ def main(argv=None) -> None:
         cfg.data.store = a.store
     src = open_source(cfg.data)
     train_idx, test_idx = split_by_source(src, cfg.data.holdout, cfg.optim.seed)
-    res = {"command": "python3 benchmarks/probe_normals.py " + " ".join(argv if argv is not None else sys.argv[1:]),
-           "checkpoint": a.checkpoint, "store": cfg.data.store, "model": cfg.to_dict()["model"],
+    res = {"checkpoint": a.checkpoint, "store": cfg.data.store, "model": cfg.to_dict()["model"],
            "data_signal": data_signal(src, a.views, 0),
            "heldout": prediction_stats(model, src, test_idx[::a.every], cfg.data.crop),
            "train": prediction_stats(model, src, train_idx[:: a.every * 20], cfg.data.crop)}
-    Path(a.out).write_text(json.dumps(res, indent=2) + "\n")
+    write_results(a.out, res, a.note)
     print(json.dumps(res, indent=2))
 
 

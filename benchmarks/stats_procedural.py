@@ -8,29 +8,27 @@ Usage: python3 benchmarks/stats_procedural.py [--per-preset 3] [--size 128] [--o
 """
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from pipeline.config import SampleConfig
+from pipeline.sample import run_sample
+from pipeline.stats import store_stats
+from pipeline.svbrdf_store import SVBRDFStore
+from svcore.config import build
 
-from pipeline.config import SampleConfig, build  # noqa: E402
-from pipeline.sample import run_sample  # noqa: E402
-from pipeline.stats import store_stats  # noqa: E402
-from pipeline.svbrdf_store import SVBRDFStore  # noqa: E402
+from harness import RESULTS, parser, write_results
 
 
 def main(argv=None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--per-preset", type=int, default=3)
     ap.add_argument("--size", type=int, default=128)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks/results/stats_procedural.json"))
+    ap.add_argument("--out", default=str(RESULTS / "stats_procedural.json"))
     a = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="stats-proc-"))
     try:
@@ -49,7 +47,7 @@ def main(argv=None) -> dict:
                        "specular_y_p95": float(np.percentile(y, 95)),
                        "specular_y_spatial_std": float(np.mean(np.asarray(per["specular_y_std"])[idx]))}
     res = {"per_preset": a.per_preset, "size": a.size, "summary": s["summary"], "specular_by_class": by_class}
-    Path(a.out).write_text(json.dumps(res, indent=1) + "\n")
+    write_results(a.out, res, note=a.note)
     print(json.dumps(res, indent=1))
     return res
 

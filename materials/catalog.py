@@ -1,8 +1,8 @@
 """The catalogue of material classes and presets: listing rows, markdown docs and a contact sheet.
 
 The contact sheet shows, per preset, the four maps and a quick flash rendering
-(numpy, the GGX model of DESIGN.md evaluated at pixel centres under a point
-light next to the camera), so a person can review the whole library at once.
+(the numpy reference of :mod:`materials.brdf_reference` at pixel centres, under a point
+flash next to the camera), so a person can review the whole library at once.
 """
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .brdf_reference import render_point_flash
 from .color import linear_to_srgb
 from .maps import SVBRDF
 from .registry import classes, presets
 
-CAM_D = 1.0 / np.tan(np.radians(25.0))  # DESIGN.md capture scene: 2x2 plane, 50 degree field of view
-LIGHT = np.array([0.15, 0.15, CAM_D])  # a flash a little off the lens, so the highlight is not dead centre
-LIGHT_POWER = 14.5  # ~ pi * D^2: a white diffuse albedo renders near 1 under the light
+#: the preview's flash offset: a little off the lens, so the highlight is not dead centre.
+PREVIEW_LIGHT_XY = (0.15, 0.15)
 
 
 def rows(cls: str | None = None) -> list[tuple[str, str, str, float, float, float]]:
@@ -71,41 +71,18 @@ def write_docs(path, cls: str | None = None) -> Path:
     return path
 
 
-def flash_render(m: SVBRDF, light=LIGHT, power: float = LIGHT_POWER) -> np.ndarray:
-    """Quick numpy rendering of the capture scene (DESIGN.md): camera and point light above the plane.
+def flash_render(m: SVBRDF, light_xy: tuple[float, float] = PREVIEW_LIGHT_XY) -> np.ndarray:
+    """Quick rendering of the capture scene for the contact sheet: :func:`materials.brdf_reference.render_point_flash`
+    at pixel centres (the data's renderer and scene constants, in numpy), clipped like the data's LDR images.
 
     Args:
         m: maps of size n.
-        light: (3,) light position; the camera is at (0, 0, D).
+        light_xy: flash offset in the camera plane.
 
     Returns:
         (n, n, 3) float32 linear radiance clipped to [0, 1]; row 0 is the top of the image (y = +1).
     """
-    n = m.size
-    t = (np.arange(n) + 0.5) / n * 2 - 1
-    x, y = np.meshgrid(t, -t)  # y up: row 0 at y = +1
-    p = np.stack([x, y, np.zeros_like(x)], -1)
-    L = np.asarray(light, float) - p
-    dist2 = np.sum(L * L, -1, keepdims=True)
-    L = L / np.sqrt(dist2)
-    V = np.array([0, 0, CAM_D]) - p
-    V = V / np.linalg.norm(V, axis=-1, keepdims=True)
-    N = m.normal.astype(float)
-    H = L + V
-    H = H / np.linalg.norm(H, axis=-1, keepdims=True)
-    nl = np.clip(np.sum(N * L, -1, keepdims=True), 1e-4, 1)
-    nv = np.clip(np.sum(N * V, -1, keepdims=True), 1e-4, 1)
-    nh = np.clip(np.sum(N * H, -1, keepdims=True), 0, 1)
-    vh = np.clip(np.sum(V * H, -1, keepdims=True), 0, 1)
-    a = np.maximum(m.roughness.astype(float) ** 2, 1e-3)
-    a2 = a * a
-    D = a2 / (np.pi * (nh * nh * (a2 - 1) + 1) ** 2)
-    k = a / 2
-    G = (nl / (nl * (1 - k) + k)) * (nv / (nv * (1 - k) + k))
-    s = m.specular.astype(float)
-    F = s + (1 - s) * 2.0 ** ((-5.55473 * vh - 6.98316) * vh)
-    f = m.diffuse * (1 - s) / np.pi + D * F * G / (4 * nl * nv)
-    return np.clip(f * nl * power / dist2, 0, 1).astype(np.float32)
+    return np.clip(render_point_flash(m, light_xy), 0, 1).astype(np.float32)
 
 
 def preview_tiles(m: SVBRDF) -> list[np.ndarray]:

@@ -2,15 +2,31 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import accumulate
 
 import numpy as np
+
+from svcore.errors import SvgenError
+
+from .capture import NORMAL_Z_MIN
 
 #: channels per map, in the canonical order used by stores and the network.
 MAP_CHANNELS: dict[str, int] = {"normal": 3, "diffuse": 3, "specular": 3, "roughness": 1}
 MAP_NAMES: tuple[str, ...] = tuple(MAP_CHANNELS)
 
+# The packed layout: the four maps' channels stacked on one axis in MAP_NAMES order, 10 channels. numpy holds
+# it as (..., H, W, 10) (:func:`pack_maps`), torch as (B, 10, H, W), the Mitsuba plugin as 10 flat planes; all
+# index it with MAP_SLICES.
+#: slice of each map in the packed channel axis: normal 0:3, diffuse 3:6, specular 6:9, roughness 9:10.
+MAP_SLICES: dict[str, slice] = {k: slice(end - c, end) for (k, c), end in
+                                 zip(MAP_CHANNELS.items(), accumulate(MAP_CHANNELS.values()))}
+#: channels of the packed layout.
+N_CHANNELS: int = sum(MAP_CHANNELS.values())
+#: short names of the packed channels, in order (the plugin's texture planes are ``tex_<name>``).
+CHANNEL_NAMES: tuple[str, ...] = ("nx", "ny", "nz", "dr", "dg", "db", "sr", "sg", "sb", "rough")
 
-class InvalidMaps(ValueError):
+
+class InvalidMaps(SvgenError, ValueError):
     """Maps that break the conventions (shape, range, finiteness, unit normals)."""
 
 
@@ -78,5 +94,25 @@ def encode_normal(n: np.ndarray) -> np.ndarray:
 def decode_normal(e: np.ndarray) -> np.ndarray:
     """[0, 1] encoding -> unit normal (renormalised, z clamped positive)."""
     n = np.asarray(e, np.float32) * 2.0 - 1.0
-    n[..., 2] = np.maximum(n[..., 2], 1e-4)
+    n[..., 2] = np.maximum(n[..., 2], NORMAL_Z_MIN)
     return normalize(n)
+
+
+def pack_maps(m: SVBRDF) -> np.ndarray:
+    """The packed layout of maps (see :data:`MAP_SLICES`).
+
+    Args:
+        m: maps of shape (..., H, W, C) each (any leading axes, broadcast arrays allowed).
+
+    Returns:
+        (..., H, W, 10) float32, a new array.
+    """
+    return np.concatenate([getattr(m, k) for k in MAP_NAMES], -1).astype(np.float32)
+
+
+def unpack_maps(a: np.ndarray) -> SVBRDF:
+    """The inverse of :func:`pack_maps`: (..., H, W, 10) -> SVBRDF of contiguous float32 copies."""
+    a = np.asarray(a)
+    if a.shape[-1] != N_CHANNELS:
+        raise InvalidMaps(f"packed maps have {a.shape[-1]} channels, expected {N_CHANNELS}")
+    return SVBRDF(**{k: np.array(a[..., sl], np.float32, order="C") for k, sl in MAP_SLICES.items()})

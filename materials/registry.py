@@ -12,6 +12,8 @@ from typing import Callable
 
 import numpy as np
 
+from svcore.errors import SvgenError
+
 from .maps import SVBRDF
 from .params import Param, ParamTable
 
@@ -20,14 +22,14 @@ MIN_SIZE, MAX_SIZE = 64, 1024
 Generator = Callable[[dict, int, np.random.Generator], SVBRDF]
 
 
-class UnknownMaterial(KeyError):
+class UnknownMaterial(SvgenError, KeyError):
     """An unknown class or preset name."""
 
     def __str__(self):
         return str(self.args[0])
 
 
-class BadParameter(ValueError):
+class BadParameter(SvgenError, ValueError):
     """A parameter that is unknown or outside its range, or a bad size."""
 
 

@@ -11,8 +11,6 @@ gives z > 0; mixing vectors would give a zero vector for opposite normals.
 """
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 from scipy.special import ndtri
 
@@ -20,15 +18,14 @@ from materials import MAP_NAMES, SVBRDF
 from materials.maps import normalize
 from materials.noise import fbm
 
-from .config import BlendConfig, as_dict
-from .errors import ConfigError
-from .log import get_logger
-from .parallel import run_chunks
-from .seeds import derive_seed
-from .store import ArraySpec, StoreWriter, write_chunk
-from .svbrdf_store import SVBRDFStore, encode_maps, map_specs
+from svcore.errors import ConfigError
+from svcore.seeds import derive_seed
 
-log = get_logger(__name__)
+from .config import BlendConfig
+from .runner import Stage
+from .store import write_chunk
+from .svbrdf_store import SVBRDFStore, array_specs, encode_maps
+
 
 MIN_NZ = 1e-3  # slopes of normals flatter than this are clamped: keeps n/n_z finite
 MASK_EDGE = 0.35  # soft edge of mask transitions, in standard deviations of the mask noise
@@ -119,25 +116,19 @@ def _chunk_task(c: int, threads: int, *, partial: str, source: str, cfg: BlendCo
     return stop - start
 
 
-def run_blend(source, out, cfg: BlendConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
-    """Write the blends of ``cfg`` over the variants store ``source`` to ``out``. Returns the path."""
+def blend_stage(source, cfg: BlendConfig) -> Stage:
+    """The blends stage of ``cfg`` over the variants store ``source`` (opens and checks it; writes nothing)."""
     src = SVBRDFStore(source, "variants")
     if len(src) < 2:
         raise ConfigError(f"{source} has {len(src)} variant(s); blending needs at least 2")
-    arrays = {**map_specs(src.size),
-              "seed": ArraySpec((), "uint64", "derived blend seed"),
-              "parents": ArraySpec((2,), "int64", "variant indices (a, b) in the source store"),
-              "preset": ArraySpec((2,), "int32", "presets of a and b: index into attrs.presets"),
-              "alpha": ArraySpec((), "float32", "weight of parent a (mask mode: expected mask mean)")}
     attrs = {"presets": src.presets, "source": {"path": str(source), "config_hash": src.attrs["svgen"]["config_hash"],
                                                 "n": len(src)},
              "blend_rule": "maps: w*a + (1-w)*b; normals: slopes n/n_z mixed, renormalised"}
-    config = {**as_dict(cfg), "source_hash": src.attrs["svgen"]["config_hash"]}
-    with StoreWriter(out, "blends", cfg.count, cfg.chunk, arrays, config, attrs) as w:
-        todo = w.pending()
-        task = functools.partial(_chunk_task, partial=str(w.partial), source=str(source), cfg=cfg,
-                                 n_variants=len(src), n=cfg.count)
-        done = w.done_samples()
-        run_chunks(task, todo, workers=workers, scheduler_address=scheduler_address, desc="blend", unit="blend",
-                   total_units=cfg.count, done_units=done)
-        return str(w.finalize())
+    config = {**cfg.as_dict(), "source_hash": src.attrs["svgen"]["config_hash"]}
+    return Stage("blends", cfg.count, cfg.chunk, array_specs("blends", src.size), config, attrs, _chunk_task,
+                 dict(source=str(source), cfg=cfg, n_variants=len(src), n=cfg.count), desc="blend", unit="blend")
+
+
+def run_blend(source, out, cfg: BlendConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
+    """Write the blends of ``cfg`` over the variants store ``source`` to ``out``. Returns the path."""
+    return blend_stage(source, cfg).run(out, workers, scheduler_address)

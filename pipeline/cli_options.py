@@ -14,16 +14,3 @@ def parallel_options(f):
     f = click.option("--workers", type=click.IntRange(min=0), default=min(2, os.cpu_count() or 1), show_default=True,
                      help="Local dask worker processes (0: run in this process, no dask).")(f)
     return f
-
-
-def config_options(section: str):
-    """--config NAME (named preset) / --params FILE (a params.yaml whose SECTION fills the config)."""
-
-    def deco(f):
-        f = click.option("--params", "params_file", type=click.Path(dir_okay=False), default=None,
-                         help=f"params.yaml whose '{section}' section sets the options (flags override it).")(f)
-        f = click.option("--config", "config_name", default="default", show_default=True,
-                         help="Named configuration preset (default, tiny, paper).")(f)
-        return f
-
-    return deco

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from .errors import SvgenError
+from svcore.errors import SvgenError
 
 
 def _check_out(path: str | None, force: bool) -> Path | None:

@@ -3,19 +3,20 @@ from __future__ import annotations
 
 import click
 
+from svcore.cli import config_command, require
+
 from .cli_options import parallel_options
+from .config import StressConfig
 
 
-@click.command()
-@click.argument("out", type=click.Path())
-@click.option("--per-category", type=int, default=8, show_default=True, help="SVBRDFs per category.")
-@click.option("--size", type=int, default=256, show_default=True, help="Map resolution.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Master seed.")
-@click.option("--category", "categories", multiple=True, help="Only these categories (repeatable; default all).")
+@config_command(StressConfig, {"per_category": "--per-category", "size": "--size", "seed": "--seed",
+                               "categories": "--category", "chunk": "--chunk"})
+@click.argument("out", type=click.Path(), required=False)
 @parallel_options
-def stress(out, per_category, size, seed, categories, workers, scheduler_address):
+def stress(out, cfg, workers, scheduler_address):
     """Write the stress categories (glossy, edge highlight, prints, dark/bright albedo, decorrelated, reference)."""
     from .stress import run_stress
 
-    path = run_stress(out, per_category, size, seed, categories, workers=workers, scheduler_address=scheduler_address)
+    require(out=out)
+    path = run_stress(out, cfg, workers=workers, scheduler_address=scheduler_address)
     click.echo(f"wrote {path}")

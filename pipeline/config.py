@@ -1,225 +1,202 @@
-"""Typed stage configurations with named presets; click options and params.yaml only fill these in.
+"""The typed configurations of the svgen stages and their presets (the mechanism: :mod:`svcore.config`).
 
-Every field has a docstring (the attribute docstring below it). The resolved
+Every field's attribute docstring is its ``--help`` text and its params.yaml documentation. The resolved
 configuration is stored in the attributes of the store a stage writes.
 """
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass, fields
-from pathlib import Path
-from typing import Any, TypeVar
+import math
+from typing import Any, ClassVar, Literal
 
-from .errors import ConfigError
+from pydantic import ConfigDict, Field, model_validator
 
-T = TypeVar("T")
+from svcore.config import ConfigModel
+
+#: ``Field(strict=False)`` on list fields: YAML gives lists, the config keeps tuples (hashable, frozen).
+_LIST = {"strict": False}
 
 
-@dataclass(frozen=True)
-class SampleConfig:
+class StageConfig(ConfigModel):
+    """A data stage's config: frozen (it travels to dask workers and into the store's config hash)."""
+
+    model_config = ConfigDict(frozen=True)
+
+
+class SampleConfig(StageConfig):
     """`svgen sample`: perturbed variants of every base material."""
 
-    per_preset: int = 12
+    SECTION: ClassVar[str] = "sample"
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
+        "default": {}, "tiny": {"per_preset": 2, "size": 64}, "paper": {"per_preset": 12, "size": 288}}
+
+    per_preset: int = Field(12, ge=1)
     """Variants per base material (the paper: ~1,850 variants of 155 materials, i.e. 12 each). Variant 0 is the
     preset's defaults; the others are perturbed."""
     size: int = 256
     """Map resolution (square, 64..1024)."""
-    seed: int = 0
+    seed: int = Field(0, ge=0, lt=2 ** 64)
     """Master seed of the stage; variant k of preset P uses derive_seed(seed, "sample", crc32(P), k)."""
-    sigma: float = 0.25
+    sigma: float = Field(0.25, gt=0, le=10)
     """Perturbation: each exposed parameter ~ Normal(default, sigma * (high - low)) truncated to [low, high]."""
-    presets: tuple[str, ...] = ()
-    """Restrict to these presets (empty: all)."""
-    classes: tuple[str, ...] = ()
-    """Restrict to these classes (empty: all)."""
-    chunk: int = 8
+    presets: tuple[str, ...] = Field((), **_LIST)
+    """Only these base materials (class/name, as `svgen materials` lists them; empty: all)."""
+    classes: tuple[str, ...] = Field((), **_LIST)
+    """Only these material classes (empty: all)."""
+    chunk: int = Field(8, ge=1)
     """Samples per zarr chunk (one dask task writes one chunk)."""
+    from_stores: tuple[str, ...] = Field((), **_LIST)
+    """Imported variants stores (`svgen import`) whose materials are perturbed too: per_material variants of
+    each, after the presets' variants (pipeline/sample_from.py)."""
+    from_dir: str | None = None
+    """A folder whose *.zarr stores join from_stores (sorted by name; a missing or empty folder adds none: the
+    DVC pipeline's data/imported)."""
+    per_material: int = Field(3, ge=1)
+    """Variants per imported material; variant k of material P uses derive_seed(seed, "sample", crc32(P), k)
+    and the generic table of pipeline/importer/perturb.py."""
+    only_from: bool = False
+    """With imported stores: write only the imported materials' variants, no presets'."""
 
-    def check(self) -> "SampleConfig":
-        _positive(self, "per_preset", "chunk")
-        if not (0 < self.sigma <= 10):
-            raise ConfigError(f"sigma must be in (0, 10], got {self.sigma}")
-        _seed(self.seed)
+    #: the keys of imported materials; a store without imported stores records the config without them, so that
+    #: it is exactly what a plain `svgen sample` writes (the default DVC pipeline passes an empty --from-dir).
+    IMPORT_KEYS: ClassVar[tuple[str, ...]] = ("from_stores", "from_dir", "per_material", "only_from")
+
+    @model_validator(mode="after")
+    def _only_from_needs_stores(self) -> "SampleConfig":
+        if self.only_from and not self.from_stores and self.from_dir is None:
+            raise ValueError("only_from needs imported stores (from_stores or from_dir)")
         return self
 
 
-@dataclass(frozen=True)
-class BlendConfig:
+class BlendConfig(StageConfig):
     """`svgen blend`: convex combinations of random pairs of variants."""
 
-    count: int = 120
+    SECTION: ClassVar[str] = "blend"
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {"default": {}, "tiny": {"count": 6}, "paper": {"count": 20000}}
+
+    count: int = Field(120, ge=1)
     """Number of blends (the paper: ~10x the number of variants)."""
-    seed: int = 0
+    seed: int = Field(0, ge=0, lt=2 ** 64)
     """Master seed; blend j uses derive_seed(seed, "blend", j) for its pair, alpha and mask."""
-    alpha_low: float = 0.2
+    alpha_low: float = Field(0.2, ge=0, le=1)
     """Lower end of alpha ~ U(alpha_low, alpha_high): weight of the first variant."""
-    alpha_high: float = 0.8
+    alpha_high: float = Field(0.8, ge=0, le=1)
     """Upper end of the alpha range."""
-    mode: str = "scalar"
-    """"scalar": one alpha for the whole maps (the paper). "mask": a tileable procedural mask in [0,1] whose mean
-    is alpha, so the two materials occupy different regions."""
+    mode: Literal["scalar", "mask"] = "scalar"
+    """scalar: one alpha for the whole maps (the paper); mask: a tileable procedural mask in [0,1] whose mean is
+    alpha, so the two materials occupy different regions."""
     mask_per_map: bool = False
-    """With mode="mask": a different mask per map (normal, diffuse, specular, roughness), decorrelating the maps."""
-    mask_scale: float = 4.0
-    """With mode="mask": features per tile of the mask noise (larger: finer patches)."""
-    chunk: int = 8
+    """Mask mode: a different mask per map (normal, diffuse, specular, roughness), decorrelating the maps."""
+    mask_scale: float = Field(4.0, ge=0.5, le=64)
+    """Mask mode: features per tile of the mask noise (larger: finer patches)."""
+    chunk: int = Field(8, ge=1)
     """Samples per zarr chunk."""
 
-    def check(self) -> "BlendConfig":
-        _positive(self, "count", "chunk")
-        if not (0.0 <= self.alpha_low <= self.alpha_high <= 1.0):
-            raise ConfigError(f"need 0 <= alpha_low <= alpha_high <= 1, got {self.alpha_low}, {self.alpha_high}")
-        if self.mode not in ("scalar", "mask"):
-            raise ConfigError(f"unknown blend mode {self.mode!r}; use 'scalar' or 'mask'")
-        if not (0.5 <= self.mask_scale <= 64):
-            raise ConfigError(f"mask_scale must be in [0.5, 64], got {self.mask_scale}")
-        _seed(self.seed)
+    @model_validator(mode="after")
+    def _alpha_order(self) -> "BlendConfig":
+        if self.alpha_low > self.alpha_high:
+            raise ValueError(f"need alpha_low <= alpha_high, got {self.alpha_low} > {self.alpha_high}")
         return self
 
 
-#: named presets per stage config ("tiny" for tests and smoke runs).
-PRESETS: dict[type, dict[str, dict[str, Any]]] = {
-    SampleConfig: {"default": {}, "tiny": {"per_preset": 2, "size": 64}, "paper": {"per_preset": 12, "size": 288}},
-    BlendConfig: {"default": {}, "tiny": {"count": 6}, "paper": {"count": 20000}},
-}
+class StressConfig(StageConfig):
+    """`svgen stress`: the failure-case evaluation sets (paper §6)."""
+
+    SECTION: ClassVar[str] = "stress"
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {"default": {}, "tiny": {"per_category": 1, "size": 64}}
+
+    per_category: int = Field(8, ge=1)
+    """SVBRDFs per category."""
+    size: int = 256
+    """Map resolution (square, 64..1024)."""
+    seed: int = Field(0, ge=0, lt=2 ** 64)
+    """Master seed; sample j of category C uses derive_seed(seed, "stress", crc32(C), j)."""
+    categories: tuple[str, ...] = Field((), **_LIST)
+    """Only these categories (empty: all of pipeline.stress.CATEGORIES)."""
+    chunk: int = Field(4, ge=1)
+    """Samples per zarr chunk."""
 
 
-def _positive(cfg, *names):
-    for n in names:
-        v = getattr(cfg, n)
-        if not isinstance(v, int) or v < 1:
-            raise ConfigError(f"{n} must be a positive integer, got {v!r}")
+#: light models and pixel samplers of the flash scene (pipeline/render/scene.py holds the implementations; a
+#: test holds these names to its LIGHT_MODELS and SAMPLERS, so the config can be read without loading mitsuba).
+LightModel = Literal["point", "sphere"]
+Sampler = Literal["centre", "stratified", "independent"]
 
 
-def _seed(seed):
-    if not isinstance(seed, int) or seed < 0:
-        raise ConfigError(f"seed must be a non-negative integer, got {seed!r}")
+class RenderConfig(StageConfig):
+    """`svgen render`: flash photographs of every SVBRDF of a variants, blends or stress store."""
+
+    SECTION: ClassVar[str] = "render"
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
+        "default": {}, "tiny": {"views": 2, "res": 64}, "paper": {"views": 10, "res": 288}}
+
+    views: int = Field(10, ge=1)
+    """Views per SVBRDF (the paper: 10), each with its own light offset, zoom, rotation, shift and seed."""
+    res: int = Field(256, ge=16, le=2048)
+    """Render resolution (square, 16..2048); the paper renders 288 and crops 256 at training time."""
+    spp: int = Field(1, ge=1)
+    """Samples per pixel (1 pixel-centre sample against a converged sphere-light reference:
+    benchmarks/bench_render_quality.py, results in benchmarks/results/render_quality.json)."""
+    light: LightModel = "point"
+    """Flash model: point, or sphere (radius 0.02, the paper's light)."""
+    sampler: Sampler = "centre"
+    """Pixel sampling: centre (deterministic pixel centres; spp a square), stratified, independent."""
+    seed: int = Field(0, ge=0, lt=2 ** 64)
+    """Master seed; view k of SVBRDF s uses derive_seed(seed, "render", s, k)."""
+    chunk: int = Field(2, ge=1)
+    """SVBRDFs per zarr chunk (one dask task renders and writes one chunk: chunk * views images)."""
+
+    @model_validator(mode="after")
+    def _square_spp(self) -> "RenderConfig":
+        if self.sampler != "independent" and math.isqrt(self.spp) ** 2 != self.spp:
+            raise ValueError(f"sampler {self.sampler!r} needs a square spp (1, 4, 9 ...), got {self.spp}")
+        return self
 
 
-def field_docs(cls) -> dict[str, str]:
-    """Field name -> attribute docstring (parsed from the source), for help texts and docs."""
-    import ast
-    import inspect
-    import textwrap
-
-    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
-    body = tree.body[0].body
-    out = {}
-    for a, b in zip(body, body[1:]):
-        if isinstance(a, ast.AnnAssign) and isinstance(b, ast.Expr) and isinstance(getattr(b, "value", None), ast.Constant):
-            out[a.target.id] = " ".join(str(b.value.value).split())
-    return out
+ImportLayout = Literal["auto", "folders", "deschaintre"]
+NormalConvention = Literal["auto", "opengl", "directx"]
 
 
-def build(cls: type[T], preset: str = "default", params_file: str | Path | None = None, section: str | None = None,
-          **overrides) -> T:
-    """Resolve a config: class defaults < named preset < params.yaml section < explicit overrides (not None).
-
-    Raises:
-        ConfigError: unknown preset, unknown key in the params file, or a value out of range.
-    """
-    presets = PRESETS.get(cls, {"default": {}})
-    if preset not in presets:
-        raise ConfigError(f"unknown preset {preset!r} for {cls.__name__}; known: {', '.join(presets)}")
-    values: dict[str, Any] = dict(presets[preset])
-    if params_file is not None:
-        values.update(load_section(params_file, section))
-    values.update({k: v for k, v in overrides.items() if v is not None})
-    names = {f.name: f for f in fields(cls)}
-    unknown = set(values) - set(names)
-    if unknown:
-        raise ConfigError(f"unknown {cls.__name__} option(s): {', '.join(sorted(unknown))}")
-    for k, v in list(values.items()):
-        if isinstance(v, list):
-            values[k] = tuple(v)
-    try:
-        cfg = cls(**values)
-    except TypeError as e:
-        raise ConfigError(str(e)) from None
-    return cfg.check() if hasattr(cfg, "check") else cfg
-
-
-def load_section(params_file: str | Path, section: str | None) -> dict[str, Any]:
-    import yaml
-
-    p = Path(params_file)
-    if not p.exists():
-        raise ConfigError(f"params file {p} does not exist")
-    try:
-        data = yaml.safe_load(p.read_text()) or {}
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise ConfigError(f"params file {p} is not valid YAML{where}: {getattr(e, 'problem', None) or e}") from None
-    if section is not None:
-        data = data.get(section, {})
-    if not isinstance(data, dict):
-        raise ConfigError(f"section {section!r} of {p} is not a mapping")
-    return data
-
-
-def as_dict(cfg) -> dict[str, Any]:
-    """JSON-able dict of a config dataclass."""
-    return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(cfg).items()}
-
-
-# --- svgen import (pipeline/importer/) -------------------------------------------------------------------------------
-IMPORT_LAYOUTS = ("auto", "folders", "deschaintre")
-NORMAL_CONVENTIONS = ("auto", "opengl", "directx")
-
-
-@dataclass(frozen=True)
-class ImportConfig:
+class ImportConfig(StageConfig):
     """`svgen import`: material folders or 2018 strips -> a variants store (or a renders store)."""
 
-    sources: tuple[str, ...] = ()
-    """Source folders (a material folder, a tree of them, or a folder of 2018 strips). params.yaml lists them under
-    import.sources; empty by default, so the default pipeline imports nothing."""
-    layout: str = "auto"
-    """"folders" (one material per folder of map files), "deschaintre" (5-tile PNG strips), or "auto" (strips when
+    SECTION: ClassVar[str] = "import"
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {"default": {}, "tiny": {"size": 64, "chunk": 2}}
+
+    sources: tuple[str, ...] = Field((), **_LIST)
+    """Source folders (a material folder, a tree of them, or a folder of 2018 strips); the command's SRC
+    arguments replace them. Empty by default, so the default pipeline imports nothing."""
+    layout: ImportLayout = "auto"
+    """folders (one material per folder of map files), deschaintre (5-tile PNG strips), or auto (strips when
     every image is a PNG 5 times as wide as high, else folders)."""
-    size: int = 256
+    size: int = Field(256, ge=16, le=4096)
     """Output map side: sources are centre-cropped to a square and area-averaged down to it."""
-    normal_convention: str = "auto"
-    """"opengl" (y up, DESIGN.md), "directx" (green flipped), or "auto": the file name (NormalGL/NormalDX), else
-    the agreement with a height map's gradient, else OpenGL (recorded per material)."""
+    normal_convention: NormalConvention = "auto"
+    """opengl (y up, DESIGN.md), directx (green flipped), or auto: the file name (NormalGL/NormalDX), else the
+    agreement with a height map's gradient, else OpenGL (recorded per material)."""
     category: str = ""
     """Category of materials whose sidecar metadata.json gives none (empty: "imported"); names become
     "<category>/<material>"."""
     allow_upscale: bool = False
     """Permit maps smaller than size (periodic bilinear upsampling); otherwise such materials are refused."""
-    as_kind: str = "variants"
-    """"variants" (maps, re-rendered by svgen render), or "renders" (deschaintre layout only: the strip's own photo
-    as a one-view renders store with the identity view transform, for svtrain eval --store)."""
-    input_space: str = "linear"
-    """Deschaintre layout: how the strip's input photo is encoded ("linear": as the 2018 code read it; "srgb")."""
-    height_strength: float = 0.02
+    as_kind: Literal["variants", "renders"] = "variants"
+    """variants: the maps, which svgen render renders again; or renders (deschaintre layout only): the strip's own
+    photo as a one-view renders store with the identity view transform, for svtrain eval --store."""
+    input_space: Literal["linear", "srgb"] = "linear"
+    """Deschaintre layout: how the strip's input photo is encoded (linear: as the 2018 code read it; srgb)."""
+    height_strength: float = Field(0.02, gt=0, le=10)
     """Relief of height value 1 in tile widths: height-derived normals are normalize(-s dh/du, -s dh/dv, 1)."""
-    per_material: int = 3
-    """DVC pipeline only: variants per imported material that `svgen sample --from-dir` adds to the variants."""
-    chunk: int = 4
+    chunk: int = Field(4, ge=1)
     """Materials per zarr chunk (one dask task converts and writes one chunk)."""
 
-    def check(self) -> "ImportConfig":
-        _positive(self, "chunk", "per_material")
-        if self.layout not in IMPORT_LAYOUTS:
-            raise ConfigError(f"unknown layout {self.layout!r}; use one of {', '.join(IMPORT_LAYOUTS)}")
-        if self.normal_convention not in NORMAL_CONVENTIONS:
-            raise ConfigError(f"unknown normal convention {self.normal_convention!r}; use one of "
-                              f"{', '.join(NORMAL_CONVENTIONS)}")
-        if self.as_kind not in ("variants", "renders"):
-            raise ConfigError(f"--as must be 'variants' or 'renders', got {self.as_kind!r}")
-        if self.as_kind == "renders" and self.layout == "folders":
-            raise ConfigError("--as renders needs the deschaintre layout (folders hold maps, not photographs)")
-        if self.input_space not in ("linear", "srgb"):
-            raise ConfigError(f"--input-space must be 'linear' or 'srgb', got {self.input_space!r}")
-        if not isinstance(self.size, int) or not 16 <= self.size <= 4096:
-            raise ConfigError(f"size must be an integer in [16, 4096], got {self.size!r}")
-        if not 0 < self.height_strength <= 10:
-            raise ConfigError(f"height_strength must be in (0, 10], got {self.height_strength}")
+    @model_validator(mode="after")
+    def _consistent(self) -> "ImportConfig":
         if "/" in self.category:
-            raise ConfigError(f"category {self.category!r} must not contain '/'")
+            raise ValueError(f"category {self.category!r} must not contain '/'")
+        if self.as_kind == "renders" and self.layout == "folders":
+            raise ValueError("--as renders needs the deschaintre layout (folders hold maps, not photographs)")
         return self
 
 
-PRESETS[ImportConfig] = {"default": {}, "tiny": {"size": 64, "chunk": 2}}
+#: params.yaml section -> config class of every svgen stage.
+STAGE_CONFIGS: dict[str, type[StageConfig]] = {c.SECTION: c for c in (SampleConfig, BlendConfig, StressConfig,
+                                                                         RenderConfig, ImportConfig)}

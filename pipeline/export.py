@@ -22,9 +22,9 @@ import numpy as np
 
 from materials.maps import SVBRDF, encode_normal
 
-from .errors import StoreError
-from .image_io import srgb_encode, write_exr, write_png
-from .progress import progress
+from svcore.errors import StoreError
+from svcore.image_io import srgb_encode, write_exr, write_png
+from svcore.progress import progress
 
 Writer = Callable[[Path, str, np.ndarray, SVBRDF, dict], list[Path]]
 FORMATS: dict[str, Writer] = {}

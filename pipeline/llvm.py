@@ -11,6 +11,8 @@ import glob
 import os
 import re
 
+from svcore.errors import SvgenError
+
 MIN_LLVM = 16
 INSTALL_HINT = (
     "drjit needs libLLVM >= 16 and none was found. Install it with "
@@ -26,7 +28,7 @@ _SEARCH = [
 ]
 
 
-class LLVMNotFound(RuntimeError):
+class LLVMNotFound(SvgenError, RuntimeError):
     """Raised when no libLLVM >= 16 can be located."""
 
 

@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import os
 
+from svcore.errors import SvgenError
+
 from .llvm import ensure_llvm
 
 DEFAULT_VARIANT = "llvm_ad_rgb"
 
 
-class MitsubaUnavailable(RuntimeError):
+class MitsubaUnavailable(SvgenError, RuntimeError):
     """Mitsuba/drjit cannot be used on this machine (with the reason and a fix)."""
 
 
@@ -43,3 +45,19 @@ def load_mitsuba(variant: str | None = None):
         except Exception as e:  # mitsuba raises ImportError/RuntimeError variants
             raise MitsubaUnavailable(f"cannot use Mitsuba variant {variant!r}: {e}") from None
     return mi
+
+
+def __getattr__(name: str):
+    """``from pipeline.mi_env import mi, dr``: the one place modules take mitsuba and drjit from.
+
+    Resolved on first use (PEP 562), so importing this module costs nothing until a renderer needs them;
+    drjit is imported only after :func:`load_mitsuba` has exported the libLLVM path.
+    """
+    if name == "mi":
+        return load_mitsuba()
+    if name == "dr":
+        load_mitsuba()
+        import drjit
+
+        return drjit
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,9 +11,9 @@ import os
 from contextlib import contextmanager
 from typing import Callable, Iterable
 
-from .errors import ConfigError
-from .log import get_logger
-from .progress import progress
+from svcore.errors import ConfigError
+from svcore.log import get_logger
+from svcore.progress import progress
 
 log = get_logger(__name__)
 
@@ -49,6 +49,9 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
             client = Client(scheduler_address, timeout=f"{connect_timeout}s")
         except (OSError, TimeoutError) as e:
             raise ConfigError(f"cannot reach the dask scheduler at {scheduler_address}: {e}") from None
+        except ValueError as e:  # distributed's address parser: "notaurl" is not host:port
+            raise ConfigError(f"scheduler address {scheduler_address!r} is not a dask address "
+                              f"(e.g. tcp://127.0.0.1:8786): {e}") from None
         try:
             yield client
         finally:

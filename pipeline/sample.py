@@ -10,7 +10,6 @@ added or removed.
 """
 from __future__ import annotations
 
-import functools
 import zlib
 from dataclasses import dataclass
 
@@ -19,15 +18,14 @@ from scipy.stats import truncnorm
 
 import materials
 
-from .config import SampleConfig, as_dict
-from .errors import ConfigError
-from .log import get_logger
-from .parallel import run_chunks
-from .seeds import derive_seed
-from .store import ArraySpec, StoreWriter, write_chunk
-from .svbrdf_store import encode_maps, map_specs
+from svcore.errors import ConfigError
+from svcore.seeds import derive_seed
 
-log = get_logger(__name__)
+from .config import SampleConfig
+from .runner import Stage
+from .store import write_chunk
+from .svbrdf_store import array_specs, encode_maps
+
 
 
 @dataclass(frozen=True)
@@ -37,6 +35,10 @@ class VariantSpec:
     preset: str
     k: int
     seed: int
+
+    def make(self, sigma: float, size: int) -> tuple[materials.SVBRDF, dict[str, float]]:
+        """Maps and parameters of this variant (:func:`make_variant`)."""
+        return make_variant(self, sigma, size)
 
 
 def select_presets(cfg: SampleConfig) -> list[materials.Preset]:
@@ -85,19 +87,25 @@ def make_variant(spec: VariantSpec, sigma: float, size: int) -> tuple[materials.
     preset = materials.get_preset(spec.preset)
     rng = np.random.default_rng(spec.seed)
     params = perturb(preset, spec.k, sigma, rng)
-    gen_seed = int(rng.integers(0, 2**63 - 1))
-    return preset.generate(params, size, gen_seed), params
+    # the maps get their own seed, the next draw of the variant's stream: Preset.generate takes a seed (its
+    # contract with the catalogue sheet, stress and tests), and changing this chain would change every store
+    map_seed = int(rng.integers(0, 2**63 - 1))
+    return preset.generate(params, size, map_seed), params
 
 
-def _chunk_task(c: int, threads: int, *, partial: str, specs: list[VariantSpec], chunk: int, sigma: float, size: int,
+def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, sigma: float, size: int,
                 preset_index: dict[str, int], max_params: int) -> int:
-    """Worker: make the variants of chunk ``c`` and write them (one whole chunk)."""
+    """Worker: make the variants of chunk ``c`` and write them (one whole chunk).
+
+    ``specs`` are :class:`VariantSpec` or, with imported stores, :class:`pipeline.sample_from.ImportedSpec`:
+    each makes its own maps and parameters (``spec.make(sigma, size)``).
+    """
     start, stop = c * chunk, min(len(specs), (c + 1) * chunk)
     n = stop - start
     maps = {k: [] for k in materials.MAP_NAMES}
     params = np.full((n, max_params), np.nan, np.float32)
     for j, spec in enumerate(specs[start:stop]):
-        m, pv = make_variant(spec, sigma, size)
+        m, pv = spec.make(sigma, size)
         for k, v in encode_maps(m.validate()).items():
             maps[k].append(v)
         params[j, :len(pv)] = list(pv.values())
@@ -109,28 +117,34 @@ def _chunk_task(c: int, threads: int, *, partial: str, specs: list[VariantSpec],
     return n
 
 
-def run_sample(out, cfg: SampleConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
-    """Write the variants store of ``cfg`` to ``out`` (resuming an interrupted run). Returns the path."""
+def sample_stage(cfg: SampleConfig) -> Stage:
+    """The variants stage of ``cfg`` (validates the selection; writes nothing).
+
+    With imported stores (``from_stores``/``from_dir``) their materials' variants join the presets'
+    (:func:`pipeline.sample_from.sample_from_stage`).
+    """
     materials.registry.check_size(cfg.size)
-    specs = plan(cfg)
+    from .sample_from import imported_stores, sample_from_stage
+
+    stores = imported_stores(cfg)
+    if stores:
+        return sample_from_stage(cfg, stores)
+    if cfg.only_from:
+        raise ConfigError(f"only_from: no imported store in {cfg.from_dir} (and no from_stores)")
     chosen = select_presets(cfg)
+    specs = plan(cfg)
     names = [p.name for p in chosen]
     max_params = max(len(p.exposed) for p in chosen)
-    arrays = {**map_specs(cfg.size),
-              "params": ArraySpec((max_params,), "float32", "exposed parameters in table order, NaN-padded"),
-              "seed": ArraySpec((), "uint64", "derived variant seed"),
-              "preset": ArraySpec((2,), "int32", "index into attrs.presets; second column -1")}
     attrs = {"presets": names,
              "param_names": {p.name: p.exposed.names() for p in chosen},
              "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]"}
-    with StoreWriter(out, "variants", len(specs), cfg.chunk, arrays, as_dict(cfg), attrs) as w:
-        todo = w.pending()
-        task = functools.partial(_chunk_task, partial=str(w.partial), specs=specs, chunk=cfg.chunk, sigma=cfg.sigma,
-                                 size=cfg.size, preset_index={n: i for i, n in enumerate(names)},
-                                 max_params=max_params)
-        done = w.done_samples()
-        if done:
-            log.info("resuming %s: %d of %d variants already written", out, done, len(specs))
-        run_chunks(task, todo, workers=workers, scheduler_address=scheduler_address, desc="sample", unit="variant",
-                   total_units=len(specs), done_units=done)
-        return str(w.finalize())
+    config = {k: v for k, v in cfg.as_dict().items() if k not in SampleConfig.IMPORT_KEYS}
+    return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config,
+                 attrs, _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
+                                          preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
+                 desc="sample", unit="variant")
+
+
+def run_sample(out, cfg: SampleConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
+    """Write the variants store of ``cfg`` to ``out`` (resuming an interrupted run). Returns the path."""
+    return sample_stage(cfg).run(out, workers, scheduler_address)

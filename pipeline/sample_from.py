@@ -3,28 +3,24 @@ material of imported variants stores, in one variants store (so blend and render
 
 Store order: the presets' variants exactly as `svgen sample` plans them, then the imported materials' variants,
 store by store, material by material. Imported variant k of material P uses derive_seed(seed, "sample",
-crc32(P), k) -- the presets' rule -- and pipeline.importer.perturb's table.
+crc32(P), k) -- the presets' rule -- and pipeline.importer.perturb's table. The stage is the sample stage
+(:func:`pipeline.sample.sample_stage` with its chunk task); this module only plans the imported part.
 """
 from __future__ import annotations
 
-import functools
 import zlib
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-import materials
+from svcore.errors import ConfigError
+from svcore.seeds import derive_seed
 
-from .config import SampleConfig, as_dict
-from .errors import ConfigError
-from .log import get_logger
-from .parallel import run_chunks
-from .sample import VariantSpec, make_variant, perturb, plan, select_presets
-from .seeds import derive_seed
-from .store import ArraySpec, StoreWriter, write_chunk
-from .svbrdf_store import SVBRDFStore, encode_maps, map_specs
-
-log = get_logger(__name__)
+from .config import SampleConfig
+from .runner import Stage
+from .sample import _chunk_task, perturb, plan, select_presets
+from .svbrdf_store import SVBRDFStore, array_specs
 
 
 @dataclass(frozen=True)
@@ -36,6 +32,18 @@ class ImportedSpec:
     preset: str
     k: int
     seed: int
+
+    def make(self, sigma: float, size: int):
+        """Maps and parameters of this variant (:func:`make_imported`; the size is the store's)."""
+        return make_imported(self, sigma)
+
+
+def imported_stores(cfg: SampleConfig) -> list[str]:
+    """``cfg.from_stores`` then the ``*.zarr`` stores of ``cfg.from_dir`` (sorted; a missing folder adds none)."""
+    stores = list(cfg.from_stores)
+    if cfg.from_dir is not None and Path(cfg.from_dir).is_dir():
+        stores += sorted(str(p) for p in Path(cfg.from_dir).glob("*.zarr"))
+    return stores
 
 
 def plan_imported(stores: list[str], per_material: int, seed: int, size: int) -> tuple[list[ImportedSpec], list]:
@@ -71,58 +79,30 @@ def make_imported(spec: ImportedSpec, sigma: float):
     return apply(_STORES[spec.store].maps(spec.index), params), params
 
 
-def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, sigma: float, size: int,
-                preset_index: dict[str, int], max_params: int) -> int:
-    start, stop = c * chunk, min(len(specs), (c + 1) * chunk)
-    maps = {k: [] for k in materials.MAP_NAMES}
-    params = np.full((stop - start, max_params), np.nan, np.float32)
-    for j, spec in enumerate(specs[start:stop]):
-        m, pv = make_variant(spec, sigma, size) if isinstance(spec, VariantSpec) else make_imported(spec, sigma)
-        for k, v in encode_maps(m.validate()).items():
-            maps[k].append(v)
-        params[j, :len(pv)] = list(pv.values())
-    data = {k: np.stack(v) for k, v in maps.items()}
-    data["params"] = params
-    data["seed"] = np.array([s.seed for s in specs[start:stop]], np.uint64)
-    data["preset"] = np.array([[preset_index[s.preset], -1] for s in specs[start:stop]], np.int32)
-    write_chunk(partial, c, start, data)
-    return stop - start
-
-
-def run_sample_from(out, cfg: SampleConfig, stores: list[str], per_material: int, with_presets: bool = True,
-                    workers: int = 2, scheduler_address: str | None = None) -> str:
-    """Write presets' variants (unless ``with_presets`` is False) and imported variants to ``out``."""
+def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
+    """The sample stage with the imported stores' variants after the presets' (none with ``cfg.only_from``)."""
     from .importer.perturb import TABLE
 
-    if per_material < 1:
-        raise ConfigError(f"--per-material must be a positive integer, got {per_material}")
-    materials.registry.check_size(cfg.size)
+    with_presets = not cfg.only_from
     chosen = select_presets(cfg) if with_presets else []
     specs: list = plan(cfg) if with_presets else []
-    imported, records = plan_imported(list(stores), per_material, cfg.seed, cfg.size)
+    imported, records = plan_imported(stores, cfg.per_material, cfg.seed, cfg.size)
     names = [p.name for p in chosen] + sorted({s.preset for s in imported}, key=[s.preset for s in imported].index)
     if len(set(names)) != len(names):
         raise ConfigError("an imported material has the name of a preset or of another imported material")
     specs += imported
     max_params = max([len(p.exposed) for p in chosen] + [len(TABLE)])
-    arrays = {**map_specs(cfg.size),
-              "params": ArraySpec((max_params,), "float32", "exposed parameters in table order, NaN-padded"),
-              "seed": ArraySpec((), "uint64", "derived variant seed"),
-              "preset": ArraySpec((2,), "int32", "index into attrs.presets; second column -1")}
     attrs = {"presets": names,
              "param_names": {**{p.name: p.exposed.names() for p in chosen},
                              **{s.preset: TABLE.names() for s in imported}},
              "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]",
-             "imported": {"stores": [str(s) for s in stores], "per_material": per_material,
+             "imported": {"stores": [str(s) for s in stores], "per_material": cfg.per_material,
                           "table": {p.name: [p.default, p.low, p.high, p.doc] for p in TABLE}},
              "materials": records}
+    # the imported stores' identities are part of the config: resuming against a re-imported store is refused
     ids = [{"path": str(s), "config_hash": SVBRDFStore(s, "variants").attrs["svgen"]["config_hash"]} for s in stores]
-    config = {**as_dict(cfg), "from": ids, "per_material": per_material, "with_presets": with_presets}
-    with StoreWriter(out, "variants", len(specs), cfg.chunk, arrays, config, attrs) as w:
-        done = w.done_samples()
-        task = functools.partial(_chunk_task, partial=str(w.partial), specs=specs, chunk=cfg.chunk, sigma=cfg.sigma,
-                                 size=cfg.size, preset_index={n: i for i, n in enumerate(names)},
-                                 max_params=max_params)
-        run_chunks(task, w.pending(), workers=workers, scheduler_address=scheduler_address, desc="sample",
-                   unit="variant", total_units=len(specs), done_units=done)
-        return str(w.finalize())
+    return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params),
+                 {**cfg.as_dict(), "from": ids}, attrs, _chunk_task,
+                 dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
+                      preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
+                 desc="sample", unit="variant")

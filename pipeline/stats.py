@@ -20,8 +20,9 @@ import numpy as np
 
 from materials.maps import MAP_NAMES
 
-from .errors import StoreError
-from .progress import progress
+from svcore.errors import StoreError
+from svcore.progress import progress
+
 from .store import open_store
 
 BINS = 32

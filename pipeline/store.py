@@ -33,7 +33,7 @@ import numpy as np
 import zarr
 from zarr.codecs import Crc32cCodec, ZstdCodec
 
-from .errors import StoreError
+from svcore.errors import StoreError
 
 SCHEMA_VERSION = 1
 PARTIAL_SUFFIX = ".partial"

@@ -15,6 +15,7 @@ overrides (e.g. a light far off-centre) are applied by the renderer to every vie
 """
 from __future__ import annotations
 
+import zlib
 from typing import Callable
 
 import numpy as np
@@ -22,9 +23,15 @@ import numpy as np
 import materials
 from materials import SVBRDF
 from materials.noise import Tex, height_to_normal
+from svcore.errors import ConfigError
+from svcore.seeds import derive_seed
 
 from .blend import blend_pair, mask
+from .config import StressConfig
+from .runner import Stage
 from .sample import perturb
+from .store import write_chunk
+from .svbrdf_store import array_specs, encode_maps
 
 Category = Callable[[np.random.Generator, int], tuple[SVBRDF, dict]]
 CATEGORIES: dict[str, Category] = {}
@@ -112,8 +119,6 @@ def decorrelated(rng, size):
 def make(name: str, rng: np.random.Generator, size: int) -> tuple[SVBRDF, dict]:
     """One sample of category ``name`` (validated maps, view overrides)."""
     if name not in CATEGORIES:
-        from .errors import ConfigError
-
         raise ConfigError(f"unknown stress category {name!r}; known: {', '.join(CATEGORIES)}")
     m, over = CATEGORIES[name](rng, size)
     return m.validate(), over
@@ -121,8 +126,6 @@ def make(name: str, rng: np.random.Generator, size: int) -> tuple[SVBRDF, dict]:
 
 def _chunk_task(c: int, threads: int, *, partial: str, plan: list[tuple[str, int]], chunk: int, size: int,
                 categories: list[str]) -> int:
-    from .svbrdf_store import encode_maps
-
     start, stop = c * chunk, min(len(plan), (c + 1) * chunk)
     maps = {k: [] for k in materials.MAP_NAMES}
     radius, seeds = [], []
@@ -137,44 +140,28 @@ def _chunk_task(c: int, threads: int, *, partial: str, plan: list[tuple[str, int
     data["category"] = np.array([categories.index(cat) for cat, _ in plan[start:stop]], np.int16)
     data["light_radius"] = np.array(radius, np.float32)
     data["preset"] = np.full((stop - start, 2), -1, np.int32)
-    from .store import write_chunk
-
     write_chunk(partial, c, start, data)
     return stop - start
 
 
-def run_stress(out, per_category: int, size: int, seed: int, categories: tuple[str, ...] = (), chunk: int = 4,
-               workers: int = 2, scheduler_address: str | None = None) -> str:
-    """Write a stress store: ``per_category`` SVBRDFs of each category (all by default), kind "stress".
+def stress_stage(cfg: StressConfig) -> Stage:
+    """The stress stage of ``cfg``: ``per_category`` SVBRDFs of each category (all by default), kind "stress".
 
     Sample j of category C is made from derive_seed(seed, "stress", crc32(C), j).
     """
-    import functools
-    import zlib
-
-    from .errors import ConfigError
-    from .parallel import run_chunks
-    from .seeds import derive_seed
-    from .store import ArraySpec, StoreWriter
-    from .svbrdf_store import map_specs
-
-    materials.registry.check_size(size)
-    cats = list(categories) or list(CATEGORIES)
+    materials.registry.check_size(cfg.size)
+    cats = list(cfg.categories) or list(CATEGORIES)
     for c in cats:
         if c not in CATEGORIES:
             raise ConfigError(f"unknown stress category {c!r}; known: {', '.join(CATEGORIES)}")
-    if per_category < 1:
-        raise ConfigError(f"--per-category must be >= 1, got {per_category}")
-    plan = [(c, derive_seed(seed, "stress", zlib.crc32(c.encode()), j)) for c in cats for j in range(per_category)]
-    arrays = {**map_specs(size), "seed": ArraySpec((), "uint64", "derived sample seed"),
-              "category": ArraySpec((), "int16", "index into attrs.categories"),
-              "light_radius": ArraySpec((2,), "float32", "light offset radius range of its views (NaN: default)"),
-              "preset": ArraySpec((2,), "int32", "-1: stress samples mix or alter presets")}
-    config = {"per_category": per_category, "size": size, "seed": seed, "categories": cats, "chunk": chunk}
+    plan = [(c, derive_seed(cfg.seed, "stress", zlib.crc32(c.encode()), j)) for c in cats
+            for j in range(cfg.per_category)]
+    config = {**cfg.as_dict(), "categories": cats}
     attrs = {"categories": cats, "presets": [], "category_docs": {c: (CATEGORIES[c].__doc__ or "").strip() for c in cats}}
-    with StoreWriter(out, "stress", len(plan), chunk, arrays, config, attrs) as w:
-        task = functools.partial(_chunk_task, partial=str(w.partial), plan=plan, chunk=chunk, size=size,
-                                 categories=cats)
-        run_chunks(task, w.pending(), workers=workers, scheduler_address=scheduler_address, desc="stress",
-                   unit="svbrdf", total_units=len(plan), done_units=w.done_samples())
-        return str(w.finalize())
+    return Stage("stress", len(plan), cfg.chunk, array_specs("stress", cfg.size), config, attrs, _chunk_task,
+                 dict(plan=plan, chunk=cfg.chunk, size=cfg.size, categories=cats), desc="stress", unit="svbrdf")
+
+
+def run_stress(out, cfg: StressConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
+    """Write the stress store of ``cfg`` to ``out`` (resuming an interrupted run). Returns the path."""
+    return stress_stage(cfg).run(out, workers, scheduler_address)

@@ -1,4 +1,4 @@
-"""Variants and blends stores: SVBRDF maps per sample plus the table that says where each came from.
+"""Variants, blends and stress stores: SVBRDF maps per sample plus the table that says where each came from.
 
 Layout (zarr v3 group, N samples of S x S maps, chunked along the sample axis):
 
@@ -10,7 +10,7 @@ Layout (zarr v3 group, N samples of S x S maps, chunked along the sample axis):
 | roughness  | (N, S, S, 1)  | uint16 | perceptual roughness * 65535 (alpha = r^2)                        |
 | seed       | (N,)          | uint64 | the sample's derived seed                                         |
 | preset     | (N, 2)        | int32  | index into attrs["presets"]; blends: both parents'; variants: -1 2nd |
-| params     | (N, P)        | float32| variants: exposed parameters in the preset's table order, NaN-padded |
+| params     | (N, P)        | float32| variants: exposed parameters in the preset's table order, NaN-padded (none in an imported store) |
 | parents    | (N, 2)        | int64  | blends only: variant indices in the source store                  |
 | alpha      | (N,)          | float32| blends only: mean weight of the first parent                      |
 | category   | (N,)          | int16  | stress only: index into attrs["categories"]                       |
@@ -25,7 +25,8 @@ import numpy as np
 
 from materials.maps import MAP_CHANNELS, MAP_NAMES, SVBRDF, encode_normal, normalize
 
-from .errors import StoreError
+from svcore.errors import StoreError
+
 from .store import ArraySpec, ChunkCache, open_store, read_region
 
 KINDS = ("variants", "blends", "stress")
@@ -39,6 +40,36 @@ def map_specs(size: int) -> dict[str, ArraySpec]:
     space = {"normal": "tangent (x right, y up, z out)", "diffuse": "linear sRGB primaries",
              "specular": "linear sRGB primaries", "roughness": "n/a"}
     return {k: ArraySpec((size, size, c), "uint16", enc[k], space[k]) for k, c in MAP_CHANNELS.items()}
+
+
+def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpec]:
+    """ArraySpecs of a variants, blends or stress store (the table above) with maps at ``size``².
+
+    Args:
+        kind: "variants", "blends" or "stress".
+        size: map resolution.
+        max_params: variants only: columns of ``params`` (the largest exposed-parameter count of its presets);
+            0: no ``params`` array (an imported store, `svgen import`: its materials have no parameters).
+    """
+    seed = {"variants": "derived variant seed", "blends": "derived blend seed", "stress": "derived sample seed"}
+    per_kind = {
+        "variants": {"params": ArraySpec((max_params,), "float32", "exposed parameters in table order, NaN-padded"),
+                     "seed": ArraySpec((), "uint64", seed["variants"]),
+                     "preset": ArraySpec((2,), "int32", "index into attrs.presets; second column -1")},
+        "blends": {"seed": ArraySpec((), "uint64", seed["blends"]),
+                   "parents": ArraySpec((2,), "int64", "variant indices (a, b) in the source store"),
+                   "preset": ArraySpec((2,), "int32", "presets of a and b: index into attrs.presets"),
+                   "alpha": ArraySpec((), "float32", "weight of parent a (mask mode: expected mask mean)")},
+        "stress": {"seed": ArraySpec((), "uint64", seed["stress"]),
+                   "category": ArraySpec((), "int16", "index into attrs.categories"),
+                   "light_radius": ArraySpec((2,), "float32", "light offset radius range of its views (NaN: default)"),
+                   "preset": ArraySpec((2,), "int32", "-1: stress samples mix or alter presets")},
+    }
+    if kind not in per_kind:
+        raise ValueError(f"unknown SVBRDF store kind {kind!r}; known: {', '.join(per_kind)}")
+    if kind == "variants" and max_params == 0:
+        del per_kind["variants"]["params"]
+    return {**map_specs(size), **per_kind[kind]}
 
 
 def encode_maps(m: SVBRDF) -> dict[str, np.ndarray]:

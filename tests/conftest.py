@@ -30,7 +30,8 @@ def svgen_cli():
     import contextlib
     import io
 
-    from pipeline.cli import cli, run_cli
+    from pipeline.cli import cli
+    from svcore.cli import run_cli
 
     def run(*args: str) -> tuple[int, str]:
         err, out = io.StringIO(), io.StringIO()

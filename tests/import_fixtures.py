@@ -5,29 +5,18 @@ import json
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
+
+from svcore.image_io import write_png, write_png16
 
 
 def png8(path: Path, a: np.ndarray) -> Path:
     """Values in [0, 1], (H, W) or (H, W, C) -> 8-bit PNG."""
-    a = np.asarray(a)
-    if a.ndim == 3 and a.shape[-1] == 1:
-        a = a[..., 0]
-    Image.fromarray(np.round(np.clip(a, 0, 1) * 255).astype(np.uint8)).save(path)
-    return path
+    return write_png(path, a)
 
 
 def png16(path: Path, a: np.ndarray) -> Path:
-    """Values in [0, 1] -> 16-bit PNG (grey or RGB; pypng, since Pillow cannot write 16-bit colour)."""
-    import png
-
-    a = np.round(np.clip(np.asarray(a, np.float64), 0, 1) * 65535).astype(np.uint16)
-    if a.ndim == 3 and a.shape[-1] == 1:
-        a = a[..., 0]
-    h, w = a.shape[:2]
-    planes = 1 if a.ndim == 2 else a.shape[2]
-    png.Writer(w, h, greyscale=planes == 1, bitdepth=16).write(open(path, "wb"), a.reshape(h, w * planes).tolist())
-    return path
+    """Values in [0, 1] -> 16-bit PNG (grey or RGB)."""
+    return write_png16(path, a)
 
 
 def exr(path: Path, a: np.ndarray, channels: str = "RGB") -> Path:

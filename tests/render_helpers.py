@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from materials.maps import SVBRDF, normalize
+from materials.maps import SVBRDF, normalize, pack_maps
 from pipeline.render import bsdf as B
 
 mi = B.mi
@@ -139,7 +139,7 @@ def numpy_transform_maps(base: SVBRDF, view, res: int) -> SVBRDF:
     r1 = (r0 + 1) % b
     c1 = (c0 + 1) % b
     # all 10 channels in one (B*B, 10) table: one fancy-index gather per corner instead of one per map
-    table = np.concatenate([base.normal, base.diffuse, base.specular, base.roughness], axis=-1).reshape(b * b, -1)
+    table = pack_maps(base).reshape(b * b, -1)
     out = (table[r0 * b + c0] * ((1 - fr) * (1 - fc)) + table[r0 * b + c1] * ((1 - fr) * fc)
            + table[r1 * b + c0] * (fr * (1 - fc)) + table[r1 * b + c1] * (fr * fc))
     if ss > 1:

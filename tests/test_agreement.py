@@ -48,10 +48,11 @@ import torch
 import torch.nn.functional as F
 
 from materials import get_preset
+from materials.capture import FLASH_INTENSITY
+from materials.maps import pack_maps
 from pipeline.render.scene import FlashScene
 from pipeline.render.views import ViewParams, transform_maps
-from train.render import FLASH_INTENSITY, flash_render
-from train.synthetic import pack
+from train.render import flash_render
 
 RES = 64
 #: the contract of issue #4.
@@ -103,7 +104,7 @@ def torch_render(maps, view: ViewParams, k: int = 1, intensity: float = FLASH_IN
     Returns:
         (H, W, 3) float32 clipped linear image, row 0 = image top.
     """
-    x = torch.from_numpy(pack(maps)).permute(2, 0, 1)[None]
+    x = torch.from_numpy(pack_maps(maps)).permute(2, 0, 1)[None]
     if k > 1:
         x = x.repeat_interleave(k, 2).repeat_interleave(k, 3)
     with torch.no_grad():

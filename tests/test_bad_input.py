@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import contextlib
 import io
-import json
 
 import numpy as np
 import pytest
 import zarr
 from PIL import Image
 
-from pipeline.cli import cli, run_cli
+from pipeline.cli import cli
+from svcore.cli import run_cli
 from train.cli import svtrain
 
 SMALL = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
@@ -30,8 +30,10 @@ def call(group, prog, args) -> tuple[int, str]:
 @pytest.fixture(scope="module")
 def world(tmp_path_factory):
     """Stores and files of every kind that the bad inputs point at."""
-    from pipeline.config import SampleConfig, build
-    from pipeline.render.stage import RenderConfig, run_render
+    from pipeline.config import SampleConfig
+    from svcore.config import build
+    from pipeline.config import RenderConfig
+    from pipeline.render.stage import run_render
     from pipeline.sample import run_sample
 
     d = tmp_path_factory.mktemp("world")
@@ -45,6 +47,11 @@ def world(tmp_path_factory):
     (d / "exists.zarr").mkdir()
     (d / "bad.yaml").write_text("sample: [unclosed\n")
     (d / "unknown_key.yaml").write_text("sample:\n  per_preset: 2\n  colour: red\n")
+    (d / "bool_views.yaml").write_text("render:\n  views: true\n")
+    (d / "list_top.yaml").write_text("- sample\n- render\n")
+    (d / "quoted_sigma.yaml").write_text('sample:\n  sigma: "0.25"\n')
+    (d / "list_section.yaml").write_text("sample:\n  - per_preset\n")
+    (d / "train_bool_lr.yaml").write_text("train:\n  optim:\n    lr: true\n")
     (d / "notes.png").write_text("this is not an image")
     Image.fromarray(np.zeros((4, 300, 3), np.uint8)).save(d / "thin.png")
     (d / "photo.jpg").write_bytes(b"")
@@ -60,12 +67,36 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
     ("unknown material class", S, ["materials", "--class", "cheese"], "unknown material class"),
     ("unknown preset", S, ["sample", "{d}/o.zarr", "--preset", "paint/nope"], "unknown preset"),
     ("size too large", S, ["sample", "{d}/o.zarr", "--size", "2000"], "size must be"),
-    ("zero variants", S, ["sample", "{d}/o.zarr", "--per-preset", "0"], "per_preset must be a positive integer"),
-    ("negative seed", S, ["sample", "{d}/o.zarr", "--seed", "-1"], "seed must be a non-negative"),
-    ("unknown config preset", S, ["sample", "{d}/o.zarr", "--config", "huge"], "unknown preset 'huge'"),
+    ("zero variants", S, ["sample", "{d}/o.zarr", "--per-preset", "0"], "sample.per_preset must be >= 1, got 0"),
+    ("negative seed", S, ["sample", "{d}/o.zarr", "--seed", "-1"], "sample.seed must be >= 0"),
+    ("seed beyond 64 bits", S, ["sample", "{d}/o.zarr", "--set", "seed=18446744073709551616"], "sample.seed must be <"),
+    ("unknown config preset", S, ["sample", "{d}/o.zarr", "--config-preset", "huge"], "'huge' is not one of"),
+    ("unknown config preset in --set", S, ["sample", "{d}/o.zarr", "--set", "config_preset=huge"],
+     "unknown config preset 'huge'"),
     ("invalid YAML", S, ["sample", "{d}/o.zarr", "--params", "{d}/bad.yaml"], "not valid YAML"),
-    ("unknown params key", S, ["sample", "{d}/o.zarr", "--params", "{d}/unknown_key.yaml"], "unknown SampleConfig option"),
-    ("output exists", S, ["sample", "{d}/exists.zarr", "--config", "tiny"], "already exists"),
+    ("unknown params key", S, ["sample", "{d}/o.zarr", "--params", "{d}/unknown_key.yaml"],
+     "unknown config key 'sample.colour'"),
+    ("params: boolean for an integer", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--params", "{d}/bool_views.yaml"],
+     "render.views must be an integer, got True"),
+    ("params: top level is a list", S, ["sample", "{d}/o.zarr", "--params", "{d}/list_top.yaml"],
+     "the top level must be a mapping"),
+    ("params: quoted number", S, ["sample", "{d}/o.zarr", "--params", "{d}/quoted_sigma.yaml"],
+     "sample.sigma must be a number, got '0.25'"),
+    ("params: section is a list", S, ["sample", "{d}/o.zarr", "--params", "{d}/list_section.yaml"],
+     "section 'sample' must be a mapping"),
+    ("params: boolean for a float (train)", T, ["fit", "--out", "{d}/o.zarr", "--params", "{d}/train_bool_lr.yaml"],
+     "train.optim.lr must be a number, got True"),
+    ("--set: unknown key", S, ["blend", "{d}/v.zarr", "{d}/o.zarr", "--set", "colour=red"],
+     "unknown config key 'blend.colour'"),
+    ("--set: not KEY=VALUE", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--set", "views"], "is not KEY=VALUE"),
+    ("--set: text for a number", S, ["stress", "{d}/o.zarr", "--set", "per_category=many"],
+     "stress.per_category must be an integer, got 'many'"),
+    ("--set: alpha range reversed", S, ["blend", "{d}/v.zarr", "{d}/o.zarr", "--set", "alpha_low=0.9"],
+     "need alpha_low <= alpha_high"),
+    ("missing output argument", S, ["sample", "--config-preset", "tiny"], "Missing argument 'OUT'"),
+    ("scheduler address that is not one", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--scheduler-address", "notaurl"],
+     "scheduler address 'notaurl' is not a dask address"),
+    ("output exists", S, ["sample", "{d}/exists.zarr", "--config-preset", "tiny"], "already exists"),
     ("missing input store", S, ["blend", "{d}/nothing.zarr", "{d}/o.zarr"], "no store at"),
     ("wrong store kind", S, ["blend", "{d}/r.zarr", "{d}/o.zarr"], "is a renders store, expected a variants store"),
     ("foreign zarr store", S, ["render", "{d}/foreign.zarr", "{d}/o.zarr"], "not an svgen store"),
@@ -74,7 +105,7 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
     ("render resolution", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--res", "8"], "res must be"),
     ("non-square spp for pixel centres", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--spp", "2"], "square spp"),
     ("unknown light model", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--light", "laser"], "Invalid value"),
-    ("unreachable scheduler", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--config", "tiny",
+    ("unreachable scheduler", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--config-preset", "tiny",
                                   "--scheduler-address", "tcp://127.0.0.1:9"], "cannot reach the dask scheduler"),
     ("unknown export format", S, ["export", "{d}/r.zarr", "{d}/o.zarr", "--format", "tiff"], "Invalid value"),
     ("export of a variants store", S, ["export", "{d}/v.zarr", "{d}/o.zarr"], "expected a renders store"),

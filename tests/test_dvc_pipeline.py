@@ -22,11 +22,11 @@ TINY = {
     "sample": {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8},
     "blend": {"count": 8, "seed": 0, "alpha_low": 0.2, "alpha_high": 0.8, "mode": "scalar", "chunk": 8},
     "render": {"views": 2, "res": 64, "spp": 1, "light": "point", "sampler": "centre", "seed": 0, "chunk": 2},
-    "train": {"preset": "compact", "model": {"base_width": 4, "max_width": 8, "levels": 3},
+    "train": {"config_preset": "compact", "model": {"base_width": 4, "max_width": 8, "levels": 3},
               "data": {"crop": 32, "workers": 0},
               "optim": {"iterations": 4, "batch_size": 2, "checkpoint_every": 2, "compile_loss": False}},
     "eval": {"limit": 8},
-    "stress": {"per_category": 1, "seed": 0},
+    "stress": {"per_category": 1, "size": 64, "seed": 0},
     "import": {"sources": []},
 }
 ENV = {**os.environ, "SVGEN_NO_PROGRESS": "1", "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t",

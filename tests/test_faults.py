@@ -12,10 +12,12 @@ from pathlib import Path
 import pytest
 
 from conftest import tree_digest
-from pipeline.cli import cli, run_cli
-from pipeline.config import SampleConfig, build
-from pipeline.render.stage import RenderConfig, run_render
+from pipeline.cli import cli
+from pipeline.config import RenderConfig, SampleConfig
+from pipeline.render.stage import run_render
 from pipeline.sample import run_sample
+from svcore.cli import run_cli
+from svcore.config import build
 
 PRESETS = ("paint/glossy_red", "wood/oak_planks")
 
@@ -42,7 +44,7 @@ def variants(tmp_path):
 
 def test_render_names_a_corrupted_input_chunk(variants, tmp_path):
     corrupt(variants / "diffuse" / "c" / "1" / "0" / "0" / "0")
-    code, err = call("render", variants, tmp_path / "r.zarr", "--config", "tiny", "--workers", "0")
+    code, err = call("render", variants, tmp_path / "r.zarr", "--config-preset", "tiny", "--workers", "0")
     assert code != 0 and err.count("\n") == 1
     assert "corrupt data" in err and "'diffuse'" in err and "chunk 1" in err, err
     assert not (tmp_path / "r.zarr").exists()
@@ -83,7 +85,7 @@ def small_disk():
 
 def test_full_disk_is_one_line_and_keeps_earlier_outputs(small_disk):
     first = small_disk / "small.zarr"
-    code, err = call("sample", first, "--config", "tiny", "--preset", PRESETS[0], "--per-preset", "1",
+    code, err = call("sample", first, "--config-preset", "tiny", "--preset", PRESETS[0], "--per-preset", "1",
                      "--workers", "0")
     assert code == 0, err
     before = tree_digest(first)

@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from import_fixtures import ambientcg, bumpy_normals, exr, height_field, matsynth, png8, png16, unit
-from pipeline.config import ImportConfig, build
-from pipeline.image_io import srgb_decode
+from pipeline.config import ImportConfig
 from pipeline.importer.job import run_import
 from pipeline.svbrdf_store import SVBRDFStore
+from svcore.config import build
+from svcore.image_io import srgb_decode
 from conftest import dump_maps, tree_digest
 
 Q8 = 1 / 255  # one 8-bit step

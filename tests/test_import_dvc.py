@@ -12,7 +12,8 @@ from conftest import tree_digest
 from import_fixtures import ambientcg, bumpy_normals
 from test_dvc_pipeline import REPO, sh  # the same project copy rules
 
-SAMPLE = {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8, "presets": ["paint/glossy_red"]}
+SAMPLE = {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8, "presets": ["paint/glossy_red"],
+          "per_material": 2}
 
 
 def project(d, sources):
@@ -22,7 +23,7 @@ def project(d, sources):
             (d / f).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(REPO / f, d / f)
     params = yaml.safe_load((d / "params.yaml").read_text())
-    params.update({"workers": 0, "sample": SAMPLE, "import": {"sources": sources, "per_material": 2}})
+    params.update({"workers": 0, "sample": SAMPLE, "import": {"sources": sources}})
     (d / "params.yaml").write_text(yaml.safe_dump(params))
     (d / "dvc.lock").unlink(missing_ok=True)
     sh("git init -q && git add -A && git commit -qm init", d)
@@ -37,11 +38,11 @@ def test_dvc_import_stage(tmp_path):
     r = sh(["dvc", "repro", "sample"], empty)
     assert "Running stage 'import'" in r.stdout and "Running stage 'sample'" in r.stdout, r.stdout
     # the reference: the sample stage's own function, without any import code path
-    from pipeline.config import SampleConfig, build
+    from pipeline.config import SampleConfig
     from pipeline.sample import run_sample
+    from svcore.config import build
 
-    ref = run_sample(tmp_path / "ref.zarr", build(SampleConfig, params_file=empty / "params.yaml", section="sample"),
-                     workers=0)
+    ref = run_sample(tmp_path / "ref.zarr", build(SampleConfig, params_file=empty / "params.yaml"), workers=0)
     assert tree_digest(empty / "data/variants.zarr") == tree_digest(ref)  # the default pipeline is unchanged
 
     src = tmp_path / "library"

@@ -13,15 +13,16 @@ from import_fixtures import ambientcg, bumpy_normals, png8
 from conftest import tree_digest
 from pipeline.importer import normals as nm
 from pipeline.importer.perturb import TABLE, apply
-from pipeline.seeds import derive_seed
 from pipeline.svbrdf_store import SVBRDFStore
+from svcore.seeds import derive_seed
 from materials.maps import SVBRDF
 
 
 @pytest.fixture(scope="module")
 def imported(tmp_path_factory):
-    from pipeline.config import ImportConfig, build
+    from pipeline.config import ImportConfig
     from pipeline.importer.job import run_import
+    from svcore.config import build
 
     d = tmp_path_factory.mktemp("imp")
     rng = np.random.default_rng(3)

@@ -9,8 +9,8 @@ from pathlib import Path
 import yaml
 
 from materials.registry import presets
-from pipeline.config import BlendConfig, SampleConfig, build
-from pipeline.render.stage import RenderConfig
+from pipeline.config import BlendConfig, RenderConfig, SampleConfig
+from svcore.config import build
 from train.config import resolve
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,9 +39,9 @@ def test_paper_recipe_resolves_to_the_paper_scale(tmp_path):
     path = tmp_path / "params.yaml"
     path.write_text(yaml.safe_dump(params))
 
-    sample = build(SampleConfig, params_file=path, section="sample")
-    blend = build(BlendConfig, params_file=path, section="blend")
-    render = build(RenderConfig, params_file=path, section="render")
+    sample = build(SampleConfig, params_file=path)
+    blend = build(BlendConfig, params_file=path)
+    render = build(RenderConfig, params_file=path)
     train = resolve(None, path)
     variants = sample.per_preset * len(list(presets()))
     assert abs(variants - 1850) / 1850 < 0.05, variants          # the paper: ~1,850 variants

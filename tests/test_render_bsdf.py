@@ -6,6 +6,7 @@ import pytest
 from mitsuba.chi2 import BSDFAdapter, ChiSquareTest
 from render_helpers import LobeDomain, direction
 
+from materials.brdf_reference import design_brdf
 from pipeline.render import bsdf as B
 
 mi = B.mi
@@ -105,20 +106,9 @@ def test_sample_weight_is_eval_over_pdf(roughness, normal):
 
 
 def _numpy_brdf_cos(wi, wo, n, d, s, r):
-    """DESIGN.md formula, float64, one texel: f(wi, wo) * (n . wo), literal G1 and the 1/(4 NL NV) division."""
-    a = max(r * r, B.ALPHA_MIN)
-    h = (wi + wo) / np.linalg.norm(wi + wo, axis=-1, keepdims=True)
-    nh, nv, nl = h @ n, wi @ n, wo @ n
-    vh = np.sum(wi * h, -1)
-    D = a * a / (np.pi * (nh**2 * (a * a - 1) + 1) ** 2)
-    k = a / 2
-
-    def g1(x):
-        return x / (x * (1 - k) + k)
-
-    G = g1(nl) * g1(nv)
-    F = s + (1 - s) * 2.0 ** ((-5.55473 * vh[:, None] - 6.98316) * vh[:, None])
-    f = d * (1 - s) / np.pi + (D * G / (4 * nl * nv))[:, None] * F
+    """The reference (materials.brdf_reference, float64) times n . wo for one texel, zero outside the domain."""
+    nl, nv = wo @ n, wi @ n
+    f = design_brdf(n, wi, wo, d, s, np.array([r]))
     return np.where(((nl > 0) & (nv > 0) & (wi[:, 2] > 0) & (wo[:, 2] > 0))[:, None], f * nl[:, None], 0.0)
 
 

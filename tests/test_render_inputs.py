@@ -5,11 +5,12 @@ import math
 
 import numpy as np
 
-from pipeline.config import BlendConfig, SampleConfig, build
-from pipeline.render.stage import RenderConfig, run_render
+from pipeline.config import BlendConfig, RenderConfig, SampleConfig, StressConfig
+from pipeline.render.stage import run_render
 from pipeline.render.store import RendersReader
 from pipeline.stress import EDGE_LIGHT_RADIUS, run_stress
 from pipeline.svbrdf_store import SVBRDFStore
+from svcore.config import build
 
 
 def test_render_of_variants_blends_and_stress_keeps_provenance(tmp_path):
@@ -19,7 +20,8 @@ def test_render_of_variants_blends_and_stress_keeps_provenance(tmp_path):
     v, b, s, r = (tmp_path / n for n in ("v.zarr", "b.zarr", "s.zarr", "r.zarr"))
     run_sample(v, build(SampleConfig, "tiny", presets=("metal/polished_gold", "wood/oak_planks"), per_preset=2), workers=0)
     run_blend(v, b, build(BlendConfig, "tiny", count=2), workers=0)
-    run_stress(s, 1, 64, 0, ("highlight_edge", "print_pattern"), workers=0)
+    run_stress(s, build(StressConfig, per_category=1, size=64, categories=("highlight_edge", "print_pattern")),
+               workers=0)
     run_render([v, b, s], r, build(RenderConfig, "tiny", views=2), workers=0)
 
     rd = RendersReader(r)

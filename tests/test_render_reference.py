@@ -1,4 +1,4 @@
-"""A Mitsuba render agrees with the independent numpy evaluation of DESIGN.md (pipeline.render.reference).
+"""A Mitsuba render agrees with the independent numpy evaluation of DESIGN.md (materials.brdf_reference).
 
 Dumps difference images (.npy) under pytest's tmp dir on failure, and names the path in the message.
 """
@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 from render_helpers import checker_svbrdf
 
-from pipeline.render.reference import render_point_flash
-from pipeline.render.scene import CAMERA_DISTANCE, FLASH_INTENSITY, FlashScene
+from materials.brdf_reference import render_point_flash
+from materials.capture import CAMERA_DISTANCE, FLASH_INTENSITY
+from pipeline.render.scene import FlashScene
 from pipeline.render.views import ViewParams, transform_maps
 
 VIEWS = [ViewParams(light_x=0.3, light_y=-0.2, seed=3), ViewParams(light_x=-0.5, light_y=0.45, seed=4)]

@@ -11,14 +11,15 @@ import time
 import pytest
 
 from conftest import tree_digest
-from pipeline.config import SampleConfig, build
-from pipeline.errors import StoreError
+from pipeline.config import SampleConfig
 from pipeline.render.store import RendersReader
 from pipeline.sample import run_sample
 from pipeline.store import DONE_DIR, partial_path
+from svcore.config import build
+from svcore.errors import StoreError
 
 N_SVBRDF = 6
-ARGS = ["--config", "tiny", "--res", "96", "--views", "3", "--chunk", "1"]
+ARGS = ["--config-preset", "tiny", "--res", "96", "--views", "3", "--chunk", "1"]
 
 
 @pytest.fixture(scope="module")

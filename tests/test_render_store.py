@@ -7,17 +7,18 @@ import pytest
 import zarr
 
 from conftest import tree_digest
-from pipeline.config import SampleConfig, build
+from pipeline.config import RenderConfig, SampleConfig
 from pipeline.render.encoding import _thresholds, decode_srgb8, encode_srgb8, encode_srgb8_reference
 from pipeline.render.scene import FlashScene
-from pipeline.render.stage import RenderConfig, run_render
+from pipeline.render.stage import run_render
 from pipeline.render.store import RendersReader
 from pipeline.sample import run_sample
 from pipeline.store import StoreWriter, write_chunk
 from pipeline.svbrdf_store import encode_maps, map_specs
+from svcore.config import build
 
 PRESETS = ("paint/glossy_red", "metal/aluminium_plate")
-RENDER = ("--config", "tiny", "--chunk", "1")
+RENDER = ("--config-preset", "tiny", "--chunk", "1")
 
 
 @pytest.fixture(scope="module")
@@ -126,8 +127,8 @@ def _svbrdf(normal):
     (("{renders}", "{tmp}/o.zarr"), "is a renders store, expected a variants or blends or stress store"),
     (("{tmp}/nothing.zarr", "{tmp}/o.zarr"), "no store at"),
     (("{variants}", "{renders}"), "already exists"),
-    (("{variants}", "{tmp}/o.zarr", "--views", "0"), "views must be a positive integer"),
-    (("{variants}", "{tmp}/o.zarr", "--res", "8"), "res must be an integer in [16, 2048]"),
+    (("{variants}", "{tmp}/o.zarr", "--views", "0"), "render.views must be >= 1"),
+    (("{variants}", "{tmp}/o.zarr", "--res", "8"), "render.res must be >= 16"),
     (("{variants}", "{tmp}/o.zarr", "--sampler", "centre", "--spp", "2"), "needs a square spp"),
     (("{variants}", "{tmp}/o.zarr", "--light", "laser"), "Invalid value for '--light'"),
     (("{variants}", "{tmp}/o.zarr", "--bogus"), "No such option"),

@@ -3,16 +3,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
-from hypothesis import strategies as st
+from hypothesis import assume, given, settings, strategies as st
 from scipy import stats
 
 import materials
 from conftest import tree_digest
 from pipeline.blend import MIN_NZ, blend_normals, mask
-from pipeline.config import BlendConfig, SampleConfig, build
+from pipeline.config import SampleConfig
 from pipeline.sample import perturb, plan
 from pipeline.svbrdf_store import SVBRDFStore
+from svcore.config import build
 
 TWO = ("--preset", "paint/glossy_red", "--preset", "paint/matte_wall")
 
@@ -20,7 +20,7 @@ TWO = ("--preset", "paint/glossy_red", "--preset", "paint/matte_wall")
 @pytest.fixture(scope="module")
 def variants(tmp_path_factory):
     """A tiny variants store written in-process (--workers 0)."""
-    from pipeline.config import build
+    from svcore.config import build
     from pipeline.sample import run_sample
 
     out = tmp_path_factory.mktemp("v") / "v.zarr"
@@ -43,7 +43,7 @@ def test_variants_store_holds_valid_maps_and_provenance(variants):
 
 def test_same_bytes_with_dask_workers_as_in_process(variants, tmp_path, svgen_cli):
     out = tmp_path / "v2.zarr"
-    code, msg = svgen_cli("sample", out, "--config", "tiny", "--per-preset", 3, "--chunk", 2, "--workers", 2, *TWO)
+    code, msg = svgen_cli("sample", out, "--config-preset", "tiny", "--per-preset", 3, "--chunk", 2, "--workers", 2, *TWO)
     assert code == 0, msg
     assert tree_digest(out) == tree_digest(variants)
 
@@ -123,9 +123,9 @@ def test_blended_normals_are_unit_with_positive_z_and_keep_endpoints(a, b, w):
     (("sample", "{tmp}/o.zarr", "--class", "cheese"), "unknown material class"),
     (("sample", "{tmp}/o.zarr", "--size", "63"), "size must be"),
     (("sample", "{tmp}/o.zarr", "--sigma", "-1"), "sigma"),
-    (("sample", "{tmp}/o.zarr", "--config", "huge"), "unknown preset 'huge'"),
+    (("sample", "{tmp}/o.zarr", "--config-preset", "huge"), "'huge' is not one of"),
     (("sample", "{tmp}/o.zarr", "--params", "{tmp}/missing.yaml"), "does not exist"),
-    (("sample", "{tmp}/exists.zarr", "--config", "tiny", *TWO), "already exists"),
+    (("sample", "{tmp}/exists.zarr", "--config-preset", "tiny", *TWO), "already exists"),
     (("blend", "{tmp}/exists.zarr", "{tmp}/b.zarr"), "not a zarr v3 store"),
     (("blend", "{tmp}/nothing.zarr", "{tmp}/b.zarr"), "no store"),
     (("blend", "{variants}", "{tmp}/b.zarr", "--alpha-low", "0.9", "--alpha-high", "0.1"), "alpha_low"),

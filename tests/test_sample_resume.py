@@ -10,10 +10,10 @@ import time
 import pytest
 
 from conftest import tree_digest
-from pipeline.errors import StoreError
+from svcore.errors import StoreError
 from pipeline.store import DONE_DIR, open_store, partial_path
 
-ARGS = ["sample", "--config", "tiny", "--size", "128", "--per-preset", "8", "--chunk", "2", "--workers", "0",
+ARGS = ["sample", "--config-preset", "tiny", "--size", "128", "--per-preset", "8", "--chunk", "2", "--workers", "0",
         "--preset", "paint/glossy_red", "--preset", "paint/matte_wall"]
 
 

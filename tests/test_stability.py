@@ -8,7 +8,7 @@ normals near the horizon and invalid (zero vector, z <= 0), diffuse and specular
   lane, ``si.uv`` at the texel centre) gives finite values >= 0, and finite pdfs;
 * the torch BRDF (``train.brdf.ggx_cos``) gives finite values >= 0 and finite gradients w.r.t. all ten map
   channels and both directions;
-* where the result is defined, both equal the DESIGN.md formula in float64 (``pipeline.render.reference``) on
+* where the result is defined, both equal the DESIGN.md formula in float64 (``materials.brdf_reference``) on
   the same float32 inputs with the same floors, within the float32 conditioning of the lobe (below).
 
 Shared floors (the "same clamping floors"): normal z is raised to 1e-4 and the normal renormalised (a zero
@@ -47,8 +47,10 @@ import torch
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from materials.brdf_reference import design_brdf, render_point_flash
+from materials.capture import ALPHA_MIN, CAMERA_DISTANCE, FLASH_INTENSITY, NORMAL_Z_MIN
+from materials.maps import N_CHANNELS, SVBRDF, pack_maps, unpack_maps
 from pipeline.render import bsdf as B
-from pipeline.render.reference import design_brdf
 from train.brdf import ggx_cos
 from train.loss import rendering_loss, sample_configs
 from train.render import flash_render
@@ -56,8 +58,6 @@ from train.render import flash_render
 mi, dr = B.mi, B.dr
 
 LANES = 4096
-NZ_FLOOR = 1e-4  # plugin _texel and train.brdf: n_z >= 1e-4, then normalise
-ALPHA_MIN = B.ALPHA_MIN
 MARGIN = 1e-5
 U32 = 2.0 ** -24  # float32 unit roundoff
 RTOL = 2e-4
@@ -87,7 +87,8 @@ class MitsubaBRDF:
         def pad(a, fill):
             return np.concatenate([a, np.broadcast_to(np.asarray(fill, a.dtype), (LANES - m,) + a.shape[1:])])
 
-        planes = B.pack_maps(pad(n, [0, 0, 1])[None], pad(d, 0.5)[None], pad(s, 0.04)[None], pad(r, 0.5)[None])
+        planes = B.to_planes(pack_maps(SVBRDF(normal=pad(n, [0, 0, 1]), diffuse=pad(d, 0.5), specular=pad(s, 0.04),
+                                              roughness=pad(r, 0.5))))
         for name, plane in zip(B.CHANNELS, planes):
             self.params["tex_" + name] = mi.Float(plane)
         self.params.update()
@@ -127,8 +128,8 @@ def torch_brdf(n, l, v, d, s, r):
 
 
 def shared_normal(n: np.ndarray) -> np.ndarray:
-    """The normal both renderers shade with: z raised to NZ_FLOOR, renormalised (float64)."""
-    m = np.concatenate([n[:, :2], np.maximum(n[:, 2:], NZ_FLOOR)], 1).astype(np.float64)
+    """The normal both renderers shade with: z raised to NORMAL_Z_MIN, renormalised (float64)."""
+    m = np.concatenate([n[:, :2], np.maximum(n[:, 2:], NORMAL_Z_MIN)], 1).astype(np.float64)
     return m / np.linalg.norm(m, axis=1, keepdims=True)
 
 
@@ -336,7 +337,7 @@ def _edge_maps(res: int, rng: np.random.Generator) -> np.ndarray:
     d = rng.choice([0.0, 1.0, 0.3], (res, res, 3))
     s = rng.choice([0.0, 1.0, 0.04], (res, res, 3))
     r = rng.choice([0.0, 1e-4, 0.01, 0.1, 1.0], (res, res, 1))
-    return np.concatenate([n, d, s, r], -1).astype(np.float32)
+    return pack_maps(SVBRDF(normal=n, diffuse=d, specular=s, roughness=r))
 
 
 @pytest.mark.parametrize("light_xy", [(0.0, 0.0), (0.5, -0.3), (3.0, 0.0)])
@@ -344,15 +345,12 @@ def test_flash_render_edges(light_xy):
     """Edge-valued maps in the capture scene: Mitsuba (pixel centres) and torch finite, torch gradients
     finite, and equal where defined. The light is always above the plane here; (3, 0) puts it far outside
     the picture (grazing light at the left edge)."""
-    from materials.maps import SVBRDF
-    from pipeline.render.reference import render_point_flash
-    from pipeline.render.scene import CAMERA_DISTANCE, FLASH_INTENSITY, FlashScene
+    from pipeline.render.scene import FlashScene
     from pipeline.render.views import ViewParams
 
     res = 32
     packed = _edge_maps(res, np.random.default_rng(7))
-    maps = SVBRDF(normal=packed[..., 0:3], diffuse=packed[..., 3:6], specular=packed[..., 6:9],
-                  roughness=packed[..., 9:10])
+    maps = unpack_maps(packed)
     mi_img = FlashScene(res, 1, "point", "centre").render_maps(maps, ViewParams(*light_xy), clip=False)
     x = torch.tensor(packed).permute(2, 0, 1)[None].requires_grad_(True)
     t_img = flash_render(x, torch.tensor(light_xy), clip=False)
@@ -365,12 +363,12 @@ def test_flash_render_edges(light_xy):
     p = np.stack([-1 + (j + 0.5) * 2 / res, 1 - (i + 0.5) * 2 / res, np.zeros((res, res))], -1).reshape(-1, 3)
     l = unit(np.array([light_xy[0], light_xy[1], CAMERA_DISTANCE]) - p)
     v = unit(np.array([0.0, 0.0, CAMERA_DISTANCE]) - p)
-    flat = packed.reshape(-1, 10)
-    defined, undefined = classify(flat[:, 0:3], l, v)
-    ref = render_point_flash(SVBRDF(normal=shared_normal(flat[:, 0:3]).reshape(res, res, 3).astype(np.float32),
+    flat = unpack_maps(packed.reshape(-1, N_CHANNELS))
+    defined, undefined = classify(flat.normal, l, v)
+    ref = render_point_flash(SVBRDF(normal=shared_normal(flat.normal).reshape(res, res, 3).astype(np.float32),
                                     diffuse=maps.diffuse, specular=maps.specular, roughness=maps.roughness),
                              light_xy, FLASH_INTENSITY, CAMERA_DISTANCE).reshape(-1, 3)
-    tol = tolerance(ref, flat[:, 9:10], l, v)
+    tol = tolerance(ref, flat.roughness, l, v)
     for name, img in (("mitsuba", mi_img.reshape(-1, 3)), ("torch", t_img.reshape(-1, 3))):
         bad = defined[:, None] & ~(np.abs(img - ref) <= tol)
         assert not bad.any(), (name, np.nonzero(bad.any(1))[0][:5], img[bad.any(1)][:3], ref[bad.any(1)][:3])

@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from import_fixtures import exr
-from pipeline.config import ImportConfig, build
+from pipeline.config import ImportConfig
 from pipeline.importer.job import run_import
 from pipeline.stats import LUMA, store_stats
+from svcore.config import build
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import zarr
 
-from pipeline.errors import StoreError
+from svcore.errors import StoreError
 from pipeline.store import ArraySpec, StoreWriter, open_store, partial_path, read_region, write_chunk
 
 ARRAYS = {"x": ArraySpec((4, 4, 3), "uint16", "test"), "seed": ArraySpec((), "uint64")}

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.image_io import read_exr, write_exr
+from svcore.image_io import read_exr, write_exr
 from train.cli import svtrain
-from pipeline.cli import run_cli
+from svcore.cli import run_cli
 
 SMALL = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
          "--set", "data.crop=32", "--set", "data.synthetic_size=40", "--set", "data.synthetic_samples=16",

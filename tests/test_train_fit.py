@@ -136,3 +136,16 @@ def test_normal_l2_adds_a_squared_term_on_the_normals_only(src):
     assert losses[3.0] - losses[0.0] == pytest.approx(expected, rel=1e-4)
     assert torch.allclose(grads[3.0][2:], grads[0.0][2:], rtol=1e-4, atol=1e-7)
     assert not torch.allclose(grads[3.0][0:2], grads[0.0][0:2], rtol=1e-2, atol=1e-6)
+
+
+def test_a_run_records_its_data_preset_and_library_versions(src, tmp_path):
+    """Stores record versions and seeds; a training run records the same about itself (provenance.json, model.pt)."""
+    import importlib.metadata as md
+
+    cfg = resolve("compact", None, {**TINY, "optim.iterations": 1})
+    fit(cfg, tmp_path / "run", source=src, show_progress=False)
+    prov = json.loads((tmp_path / "run" / "provenance.json").read_text())
+    assert prov["config_preset"] == "compact"
+    assert prov["data"]["synthetic"] == {"samples": 16, "size": 40, "materials": 4, "seed": 2, "kind": "simple"}
+    assert prov["versions"]["torch"] == md.version("torch") and prov["versions"]["numpy"] == md.version("numpy")
+    assert torch.load(tmp_path / "run" / "model.pt", weights_only=False)["provenance"] == prov

@@ -4,11 +4,11 @@ from __future__ import annotations
 import pytest
 import torch
 
-from train.config import PRESETS, ModelConfig, preset
+from train.config import Config, ModelConfig, preset
 from train.net import SVBRDFNet, log_map
 
 
-@pytest.mark.parametrize("name", sorted(PRESETS))
+@pytest.mark.parametrize("name", sorted(Config.PRESETS))
 def test_shapes_per_preset(name):
     cfg = preset(name)
     torch.manual_seed(0)

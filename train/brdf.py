@@ -1,7 +1,8 @@
 """The DESIGN.md Cook–Torrance/GGX BRDF in torch: batched, differentiable, finite at every edge.
 
-Maps travel as one packed tensor (B, 10, H, W) in the order of ``materials.maps.MAP_NAMES``:
-normal 0:3, diffuse 3:6, specular 6:9, roughness 9:10 (perceptual r, alpha = r**2).
+Maps travel as one packed tensor (B, 10, H, W) in the packed layout of ``materials.maps`` (``MAP_SLICES``):
+normal 0:3, diffuse 3:6, specular 6:9, roughness 9:10 (perceptual r, alpha = r**2). The scene constants and
+floors come from ``materials.capture``; the numpy statement of the model is ``materials.brdf_reference``.
 
 The geometry term is evaluated in its "visibility" form
 ``G / (4 NL NV) = G1'(NL) G1'(NV) / 4`` with ``G1'(x) = 1 / (x (1 - k) + k)``: algebraically the
@@ -14,13 +15,11 @@ import math
 
 import torch
 
-#: channel slices of the packed map tensor.
-NORMAL, DIFFUSE, SPECULAR, ROUGHNESS = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 10)
-N_CHANNELS = 10
+from materials.capture import FRESNEL_SG_A, FRESNEL_SG_B, NORMAL_Z_MIN, ROUGHNESS_MIN
+from materials.maps import MAP_SLICES
 
-#: roughness floor: alpha = 1e-4 keeps D (~1/(pi alpha^2) = 3e7 at the peak) and its gradient inside
-#: float32. The Mitsuba plugin must apply the same floor for the two renderers to agree.
-MIN_ROUGHNESS = 0.01
+#: channel slices of the packed map tensor.
+NORMAL, DIFFUSE, SPECULAR, ROUGHNESS = (MAP_SLICES[k] for k in ("normal", "diffuse", "specular", "roughness"))
 #: floor of vector norms before normalising (zero vectors give a finite, zero-gradient result).
 NORM_EPS = 1e-8
 
@@ -57,10 +56,10 @@ def ggx_cos(maps: torch.Tensor, wi: torch.Tensor, wo: torch.Tensor, dim: int = 1
     sl = lambda s: maps.narrow(dim, s.start, s.stop - s.start)  # noqa: E731
     n = sl(NORMAL)
     # Same floor on n_z as the Mitsuba plugin: a normal at/below the horizon becomes a grazing one.
-    n = normalize(torch.cat([n.narrow(dim, 0, 2), n.narrow(dim, 2, 1).clamp(min=1e-4)], dim), dim)
+    n = normalize(torch.cat([n.narrow(dim, 0, 2), n.narrow(dim, 2, 1).clamp(min=NORMAL_Z_MIN)], dim), dim)
     d = sl(DIFFUSE).clamp(0.0, 1.0)
     s = sl(SPECULAR).clamp(0.0, 1.0)
-    r = sl(ROUGHNESS).clamp(MIN_ROUGHNESS, 1.0)
+    r = sl(ROUGHNESS).clamp(ROUGHNESS_MIN, 1.0)
     alpha = r * r
     a2 = alpha * alpha
     k = alpha * 0.5
@@ -92,7 +91,7 @@ def ggx_cos(maps: torch.Tensor, wi: torch.Tensor, wo: torch.Tensor, dim: int = 1
     q = torch.maximum(nh * nh * a2 + sin2, a2).clamp(max=1.0)
     D = a2 / (math.pi * q * q)
     vis = 0.25 / ((nl * (1.0 - k) + k) * (nv * (1.0 - k) + k))
-    fc = torch.exp2((-5.55473 * vh - 6.98316) * vh)
+    fc = torch.exp2((-FRESNEL_SG_A * vh - FRESNEL_SG_B) * vh)
     spec = D * vis * nl  # scalar per pixel: D G / (4 NL NV) · NL
     # f·NL = d(1-s)/pi·NL + spec·(s + (1-s)·fc), grouped so only three ops run on 3 channels.
     return (1.0 - s) * (d * (nl / math.pi) + spec * fc) + s * spec

@@ -7,7 +7,7 @@ from typing import Any
 
 import torch
 
-from pipeline.errors import SvgenError
+from svcore.errors import SvgenError
 
 from .config import Config, from_dict
 from .net import SVBRDFNet

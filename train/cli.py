@@ -1,5 +1,5 @@
 """The ``svtrain`` command line: ``fit``, ``eval``, ``predict``. Thin wrappers over the modules;
-user errors print one line through :func:`pipeline.cli.run_cli`."""
+user errors print one line through :func:`svcore.cli.run_cli`."""
 from __future__ import annotations
 
 import json
@@ -8,8 +8,10 @@ from pathlib import Path
 
 import click
 
-from pipeline.cli import run_cli
-from pipeline.log import configure, get_logger
+from svcore.cli import config_command, run_cli, version_option
+from svcore.log import configure, get_logger
+
+from .config import Config
 
 log = get_logger(__name__)
 
@@ -18,40 +20,26 @@ DEFAULT_RUN = "runs/train"
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("-v", "--verbose", is_flag=True, help="Debug logging.")
+@version_option("svtrain")
 def svtrain(verbose: bool) -> None:
     """svtrain: train and use the single-image SVBRDF capture network."""
     configure(verbose)
 
 
-@svtrain.command()
-@click.option("--preset", default=None, help="Named config preset: compact (default) or paper.")
-@click.option("--params", "params_file", type=click.Path(dir_okay=False), default=None,
-              help="params.yaml whose 'train' section sets the config (flags override it).")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="Override any config field, e.g. --set model.base_width=32 (repeatable).")
-@click.option("--store", default=None, help="Renders store (default: the in-memory synthetic source).")
-@click.option("--iterations", type=int, default=None, help="Total optimisation steps.")
-@click.option("--batch-size", type=int, default=None, help="Samples per step.")
-@click.option("--seed", type=int, default=None, help="Master seed.")
-@click.option("--workers", type=int, default=None, help="DataLoader worker processes.")
+@config_command(Config, {"data.store": "--store", "optim.iterations": "--iterations",
+                         "optim.batch_size": "--batch-size", "optim.seed": "--seed", "data.workers": "--workers",
+                         "optim.compile_loss": "--compile/--no-compile"})
 @click.option("--out", default=DEFAULT_RUN, show_default=True, help="Run directory.")
 @click.option("--no-resume", is_flag=True, help="Start over even if the run directory has a checkpoint.")
-@click.option("--no-compile", is_flag=True, help="Do not torch.compile the loss renderer.")
-def fit(preset, params_file, overrides, store, iterations, batch_size, seed, workers, out, no_resume, no_compile):
+def fit(cfg, out, no_resume):
     """Train the network (resumes from OUT/checkpoint.pt after an interruption)."""
-    from .config import parse_overrides, resolve
     from .fit import fit as run_fit
 
-    ov = parse_overrides(list(overrides))
-    for key, val in (("data.store", store), ("optim.iterations", iterations), ("optim.batch_size", batch_size),
-                     ("optim.seed", seed), ("data.workers", workers)):
-        if val is not None:
-            ov[key] = val
-    if no_compile:
-        ov["optim.compile_loss"] = False
-    cfg = resolve(preset, params_file, ov)
     metrics = run_fit(cfg, out, resume=not no_resume)
     click.echo(json.dumps(metrics))
+
+
+svtrain.add_command(fit)
 
 
 @svtrain.command("eval")

@@ -17,8 +17,9 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset, Sampler
 
-from pipeline.errors import StoreError
-from pipeline.seeds import rng_for
+from materials.maps import pack_maps
+from svcore.errors import StoreError
+from svcore.seeds import stream_rng
 
 
 class Source(Protocol):
@@ -32,8 +33,7 @@ def packed_maps(src: Source, i: int) -> np.ndarray:
     """(H, W, 10) packed maps of sample i (normal, diffuse, specular, roughness)."""
     if hasattr(src, "packed"):
         return src.packed(i)
-    m = src.maps(i)
-    return np.concatenate([m.normal, m.diffuse, m.specular, m.roughness], -1).astype(np.float32)
+    return pack_maps(src.maps(i))
 
 
 def preset_ids(src_entry: Any) -> tuple[str, ...]:
@@ -68,7 +68,7 @@ def split_by_source(src: Source, holdout: float, seed: int = 0) -> tuple[np.ndar
     names = sorted({n for t in ids for n in t})
     if len(names) < 2:
         raise StoreError(f"the held-out split needs at least 2 source presets, the source has {len(names)}")
-    rng = rng_for(seed, "eval", 0)
+    rng = stream_rng(seed, "split.holdout")
     n_test = min(len(names) - 1, max(1, int(round(holdout * len(names)))))
     test = set(rng.permutation(names)[:n_test].tolist())
     train_idx = [i for i, t in enumerate(ids) if not any(n in test for n in t)]
@@ -150,13 +150,13 @@ class PairDataset(Dataset):
         n = len(self.indices)
         epoch = pos // n
         if epoch != self._perm_epoch:
-            self._perm = rng_for(self.seed, "train", 5, epoch).permutation(n)
+            self._perm = stream_rng(self.seed, "train.epoch_order", epoch).permutation(n)
             self._perm_epoch = epoch
         return int(self.indices[self._perm[pos % n]])
 
     def __getitem__(self, pos: int) -> tuple[torch.Tensor, torch.Tensor]:
         i = self.index_of(int(pos))
-        rng = rng_for(self.seed, "train", 6, int(pos)) if self.train else None
+        rng = stream_rng(self.seed, "train.augment", int(pos)) if self.train else None
         crop = getattr(self.src, "crop", None)
         if crop is not None:
             # the store transforms only the window's pixels (4x less work for 256 -> 128 crops)
@@ -166,7 +166,7 @@ class PairDataset(Dataset):
             y0, x0 = ((h - self.crop) // 2,) * 2 if rng is None else tuple(int(rng.integers(0, h - self.crop + 1))
                                                                             for _ in range(2))
             img, m = crop(i, y0, x0, self.crop)
-            mp = np.concatenate([m.normal, m.diffuse, m.specular, m.roughness], -1)
+            mp = pack_maps(m)
         else:
             img, mp = np.asarray(self.src.image(i), np.float32), packed_maps(self.src, i)
         img, mp = augment(img, mp, rng, self.crop, self.flips)

@@ -21,9 +21,10 @@ def plot_eval(groups: dict[str, dict], png_path: str | Path, title: str) -> Path
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from .evaluate import COLUMNS
-
     names = list(groups)
+    # the columns are those of the results, in their order: a new metric needs no change here (and this module
+    # needs nothing from train.evaluate, which imports it)
+    COLUMNS = list(next(r[m] for r in groups.values() for m in METHODS if m in r))
     fig, axes = plt.subplots(1, len(COLUMNS), figsize=(3.0 * len(COLUMNS), 3.6), dpi=100, sharey=False)
     x = np.arange(len(names))
     width = 0.8 / len(METHODS)

@@ -15,7 +15,6 @@ split of the training store.
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 from typing import Callable
@@ -23,7 +22,7 @@ from typing import Callable
 import numpy as np
 import torch
 
-from pipeline.errors import ConfigError
+from svcore.errors import ConfigError
 
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .config import Config
@@ -46,7 +45,7 @@ def register_suite(name: str, fn: Callable) -> None:
 
 
 def _heldout(cfg: Config, store: str | None):
-    data = dataclasses.replace(cfg.data, store=store) if store else cfg.data
+    data = cfg.data.model_copy(update={"store": store}) if store else cfg.data
     src = open_source(data)
     _, test = split_by_source(src, cfg.data.holdout, cfg.optim.seed)
     return {"heldout": (src, test)}
@@ -55,7 +54,7 @@ def _heldout(cfg: Config, store: str | None):
 def _stress(cfg: Config, store: str | None):
     if not store:
         raise ConfigError("--suite stress needs --store: a renders store of `svgen stress` sets")
-    src = open_source(dataclasses.replace(cfg.data, store=store))
+    src = open_source(cfg.data.model_copy(update={"store": store}))
     cats = getattr(src, "categories_of_views", lambda: [])()
     names = [c for c in dict.fromkeys(cats) if c is not None]
     if not names:
@@ -67,7 +66,7 @@ def _all(cfg: Config, store: str | None):
     # every view of an external test set, e.g. the 2018 strips imported with `svgen import --as renders`
     if not store:
         raise ConfigError("--suite all needs --store: a renders store to evaluate in full")
-    src = open_source(dataclasses.replace(cfg.data, store=store))
+    src = open_source(cfg.data.model_copy(update={"store": store}))
     return {"all": (src, np.arange(len(src), dtype=np.int64))}
 
 

@@ -6,7 +6,8 @@ dropout: torch's global RNG). So stopping at any checkpoint and resuming reprodu
 uninterrupted run exactly on the same machine and thread count.
 
 Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (full state),
-``model.pt`` (weights + config), ``metrics.json``, ``loss.csv``, ``loss.png``.
+``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
+versions), ``metrics.json``, ``loss.csv``, ``loss.png``.
 """
 from __future__ import annotations
 
@@ -19,10 +20,11 @@ import numpy as np
 import torch
 import yaml
 
-from pipeline.errors import ConfigError, SvgenError
-from pipeline.log import get_logger
-from pipeline.progress import progress
-from pipeline.seeds import derive_seed
+from svcore.errors import ConfigError, SvgenError
+from svcore.log import get_logger
+from svcore.progress import progress
+from svcore.seeds import stream_seed
+from svcore.versions import library_versions
 
 from . import checkpoint
 from .config import Config, OptimConfig
@@ -33,19 +35,29 @@ from .net import SVBRDFNet, count_parameters
 log = get_logger(__name__)
 
 
-def _seeded(seed: int, key: int) -> int:
-    return derive_seed(seed, "train", 100 + key)
-
-
 def build(cfg: Config) -> tuple[SVBRDFNet, torch.optim.Optimizer, torch.Generator]:
     """Fresh model (seeded init), Adam, and the loss-configuration generator."""
     o = cfg.optim
-    torch.manual_seed(_seeded(o.seed, 0))
+    torch.manual_seed(stream_seed(o.seed, "train.init"))
     model = SVBRDFNet(cfg.model)
     opt = torch.optim.Adam(model.parameters(), lr=o.lr, betas=(o.beta1, o.beta2))
-    gen = torch.Generator().manual_seed(_seeded(o.seed, 1))
-    torch.manual_seed(_seeded(o.seed, 2))  # the dropout stream
+    gen = torch.Generator().manual_seed(stream_seed(o.seed, "train.loss_configs"))
+    torch.manual_seed(stream_seed(o.seed, "train.dropout"))
     return model, opt, gen
+
+
+def provenance(cfg: Config, src) -> dict:
+    """What a run trained on and with: the config preset, the data source (a renders store's path and config
+    hash, or the synthetic source's settings) and the library versions (stores record the same)."""
+    if cfg.data.store:
+        meta = getattr(src, "attrs", {}).get("svgen", {})
+        data = {"store": str(cfg.data.store), "store_resolved": str(Path(cfg.data.store).resolve()),
+                "kind": meta.get("kind"), "config_hash": meta.get("config_hash"), "n": meta.get("n")}
+    else:  # the source actually used (a caller may pass its own), not the config's synthetic_* defaults
+        data = {"synthetic": {k: getattr(src, a, None) for k, a in (("samples", "n"), ("size", "size"),
+                                                                    ("materials", "n_materials"), ("seed", "seed"),
+                                                                    ("kind", "kind"))}}
+    return {"config_preset": cfg.preset, "data": data, "versions": library_versions()}
 
 
 def lr_at(o: OptimConfig, step: int) -> float:
@@ -135,7 +147,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
     Returns:
         the metrics dict (also in metrics.json).
     """
-    cfg.validate()
+    cfg.check()
     o = cfg.optim
     # open the data first: a bad store must fail before the run directory exists
     src = source if source is not None else open_source(cfg.data)
@@ -158,6 +170,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
         start, losses = int(state["step"]), list(state["losses"])
         log.info("resuming %s at step %d", out, start)
     (out / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
+    (out / "provenance.json").write_text(json.dumps(provenance(cfg, src), indent=2) + "\n")
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
     loss_fn = make_loss(o.compile_loss)
@@ -177,7 +190,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
             # A dedicated loader generator: DataLoader otherwise draws its base seed from torch's global
             # RNG, which would shift the dropout stream between an uninterrupted and a resumed run.
             loader = make_loader(ds, o.batch_size, start, stop, cfg.data.workers)
-            loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
+            loader.generator = torch.Generator().manual_seed(stream_seed(o.seed, "train.loader"))
             for image, maps in loader:
                 loss, _ = train_step(model, opt, loss_fn, image, maps, gen, o, step)
                 if not math.isfinite(loss):  # the weights are now non-finite too: keep the last good checkpoint
@@ -197,7 +210,8 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
     bar.close()
     elapsed = time.perf_counter() - t0
     save(step)
-    checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": model.state_dict(), "step": step})
+    checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": model.state_dict(), "step": step,
+                                       "provenance": provenance(cfg, src)})
     extra = {"it_per_s": (step - start) / elapsed if step > start and elapsed > 0 else None,
              "parameters": count_parameters(model), "train_samples": int(len(train_idx)),
              "test_samples": int(len(test_idx)), "done": step >= o.iterations}

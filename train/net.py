@@ -16,7 +16,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from .brdf import MIN_ROUGHNESS
+from materials.capture import ROUGHNESS_MIN
+
 from .config import ModelConfig
 
 IN_EPS = 1e-5
@@ -105,7 +106,7 @@ class SVBRDFNet(nn.Module):
         with torch.no_grad():
             self.out_conv.bias.zero_()
             self.out_conv.bias[2:5] = _logit(INIT_DIFFUSE)
-            self.out_conv.bias[5] = _logit((INIT_ROUGHNESS - MIN_ROUGHNESS) / (1.0 - MIN_ROUGHNESS))
+            self.out_conv.bias[5] = _logit((INIT_ROUGHNESS - ROUGHNESS_MIN) / (1.0 - ROUGHNESS_MIN))
             self.out_conv.bias[6:9] = _logit(INIT_SPECULAR)
             if cfg.zero_output:
                 self.out_conv.weight.zero_()
@@ -139,7 +140,7 @@ def outputs_to_maps(o: torch.Tensor) -> torch.Tensor:
 
     Returns:
         (B, 10, H, W): unit normal with reconstructed z > 0, diffuse, specular in [0, 1], roughness in
-        [MIN_ROUGHNESS, 1].
+        [ROUGHNESS_MIN, 1].
     """
     xy = torch.tanh(o[:, 0:2])
     # z from the unit-length constraint; the floor keeps sqrt's gradient finite when |xy| -> 1,
@@ -148,9 +149,9 @@ def outputs_to_maps(o: torch.Tensor) -> torch.Tensor:
     n = torch.cat([xy, z], 1)
     n = n * torch.rsqrt((n * n).sum(1, keepdim=True))
     diffuse = torch.sigmoid(o[:, 2:5])
-    # roughness in [MIN_ROUGHNESS, 1], the renderer's domain: below the floor its clamp has zero gradient, and the
+    # roughness in [ROUGHNESS_MIN, 1], the renderer's domain: below the floor its clamp has zero gradient, and the
     # dvc model had 55 % of its held-out pixels there (a dead zone the loss could never pull them out of).
-    rough = MIN_ROUGHNESS + (1.0 - MIN_ROUGHNESS) * torch.sigmoid(o[:, 5:6])
+    rough = ROUGHNESS_MIN + (1.0 - ROUGHNESS_MIN) * torch.sigmoid(o[:, 5:6])
     spec = torch.sigmoid(o[:, 6:9])
     return torch.cat([n, diffuse, spec, rough], 1)
 

@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from pipeline.image_io import ImageError, read_exr, read_ldr, srgb_decode, srgb_encode, write_exr, write_png
+from svcore.image_io import ImageError, read_exr, read_ldr, srgb_decode, srgb_encode, write_exr, write_png
 
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .checkpoint import load_model

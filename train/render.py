@@ -2,23 +2,15 @@
 
 Plane coordinates: pixel (i, j) of an (H, W) map has its centre at
 ``x = -1 + (j + 0.5) * 2 / W``, ``y = 1 - (i + 0.5) * 2 / H``, ``z = 0`` (row 0 = image top, y up),
-on the 2×2 material plane that fills the image exactly.
+on the 2×2 material plane that fills the image exactly. Camera distance and flash intensity: ``materials.capture``.
 """
 from __future__ import annotations
 
-import math
-
 import torch
 
-from .brdf import ggx_cos
+from materials.capture import CAMERA_DISTANCE, FLASH_INTENSITY
 
-#: camera distance D = 1 / tan(25°) for a 50° field of view over the 2×2 plane.
-CAMERA_DISTANCE = 1.0 / math.tan(math.radians(25.0))
-#: Radiant intensity of the flash (W/sr; Mitsuba `point` light `intensity`): pi D^2, so a centred flash
-#: gives irradiance pi at the image centre and a white Lambertian texel renders as 1 there.
-#: Owned by the Mitsuba scene (pipeline/render/scene.py FLASH_INTENSITY); restated here by the same
-#: formula because importing that module loads mitsuba/drjit; tests/test_train_render.py holds them equal.
-FLASH_INTENSITY = math.pi * CAMERA_DISTANCE ** 2
+from .brdf import ggx_cos
 
 
 def plane_points(h: int, w: int, device=None, dtype=torch.float32) -> torch.Tensor:

@@ -14,25 +14,11 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from materials.maps import SVBRDF
-from pipeline.seeds import rng_for
+from materials.capture import LIGHT_R_MAX, LIGHT_R_MIN
+from materials.maps import SVBRDF, pack_maps, unpack_maps
+from svcore.seeds import stream_rng
 
 from .render import flash_render
-
-#: flash offset radius range of the render stage's views (pipeline/render/views.py R_MIN, R_MAX).
-LIGHT_R_MIN, LIGHT_R_MAX = 0.1, 0.7
-
-
-def pack(m: SVBRDF) -> np.ndarray:
-    """SVBRDF -> (H, W, 10) float32 in packed channel order (normal, diffuse, specular, roughness)."""
-    return np.concatenate([m.normal, m.diffuse, m.specular, m.roughness], -1).astype(np.float32)
-
-
-def unpack(a: np.ndarray) -> SVBRDF:
-    """(H, W, 10) packed array -> SVBRDF."""
-    a = np.asarray(a, np.float32)
-    return SVBRDF(normal=a[..., 0:3], diffuse=a[..., 3:6], specular=a[..., 6:9], roughness=a[..., 9:10])
-
 
 def _field(rng: np.random.Generator, size: int, cells: int, ch: int) -> np.ndarray:
     """Smooth random field (ch, size, size) in about [-1, 1]: bicubic upsampling of a coarse grid."""
@@ -42,13 +28,13 @@ def _field(rng: np.random.Generator, size: int, cells: int, ch: int) -> np.ndarr
 
 def simple_maps(material: int, sample: int, size: int, seed: int) -> SVBRDF:
     """A cheap procedural SVBRDF: the material fixes the look, the sample varies the fields."""
-    mrng = rng_for(seed, "train", 1, material)
+    mrng = stream_rng(seed, "synthetic.material", material)
     base = mrng.uniform(0.05, 0.8, 3)
     metal = mrng.random() < 0.25
     spec0 = mrng.uniform(0.5, 1.0, 3) if metal else np.full(3, mrng.uniform(0.02, 0.08))
     r0, r_var = mrng.uniform(0.15, 0.85), mrng.uniform(0.0, 0.25)
     bump, cells = mrng.uniform(0.0, 3.0), int(mrng.integers(3, 24))
-    rng = rng_for(seed, "train", 2, material, sample)
+    rng = stream_rng(seed, "synthetic.sample", material, sample)
     f = _field(rng, size, cells, 5)
     diffuse = np.clip(base[:, None, None] * (1.0 + 0.4 * f[0:3]), 0.0, 1.0) * (0.1 if metal else 1.0)
     rough = np.clip(r0 + r_var * f[3:4], 0.05, 1.0)
@@ -102,11 +88,11 @@ class SyntheticSource:
             for i in idx:
                 m = self._material(i)
                 if self.kind == "presets":
-                    svb = self._presets[m].generate(None, self.size, rng_for(self.seed, "train", 3, i).integers(2**31))
+                    svb = self._presets[m].generate(None, self.size, stream_rng(self.seed, "synthetic.preset_maps", i).integers(2**31))
                 else:
                     svb = simple_maps(m, i, self.size, self.seed)
-                self._maps[i] = pack(svb)
-                rng = rng_for(self.seed, "train", 4, i)
+                self._maps[i] = pack_maps(svb)
+                rng = stream_rng(self.seed, "synthetic.light", i)
                 rho = math.sqrt(rng.uniform(LIGHT_R_MIN ** 2, LIGHT_R_MAX ** 2))
                 phi = rng.uniform(0.0, 2.0 * math.pi)
                 self.light[i] = (rho * math.cos(phi), rho * math.sin(phi))
@@ -125,7 +111,7 @@ class SyntheticSource:
 
     def maps(self, i: int) -> SVBRDF:
         """The aligned maps of sample i."""
-        return unpack(self._maps[i])
+        return unpack_maps(self._maps[i])
 
     def packed(self, i: int) -> np.ndarray:
         """(H, W, 10) packed maps (fast path used by the dataset)."""

@@ -13,7 +13,7 @@ svgen's variants and renders stores. One module per job:
 """
 from __future__ import annotations
 
-from ..errors import SvgenError
+from svcore.errors import SvgenError
 
 
 class ImportInputError(SvgenError):

@@ -25,7 +25,8 @@ import numpy as np
 
 from materials.maps import SVBRDF
 
-from ..image_io import srgb_decode
+from svcore.image_io import srgb_decode
+
 from . import ImportInputError
 from . import normals as nm
 from .discover import MaterialSource

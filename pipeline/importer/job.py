@@ -8,7 +8,7 @@ store's ``materials`` attribute at finalize.
 """
 from __future__ import annotations
 
-import functools
+import dataclasses
 import json
 import os
 import shutil
@@ -19,18 +19,18 @@ import numpy as np
 
 from materials.maps import MAP_NAMES
 
-from ..config import ImportConfig, as_dict
-from ..errors import ConfigError
-from ..log import get_logger
-from ..parallel import run_chunks
-from ..store import ArraySpec, StoreWriter, write_chunk
-from ..svbrdf_store import encode_maps, map_specs
+from svcore.errors import ConfigError
+
+from ..config import ImportConfig
+from ..runner import Stage
+from ..store import write_chunk
+from ..svbrdf_store import array_specs as svbrdf_array_specs
+from ..svbrdf_store import encode_maps
 from . import ImportInputError
 from .convert import preflight
 from .discover import MaterialSource, find_folders
 from .strips import find_strips, tile_size
 
-log = get_logger(__name__)
 RECORDS = ".import_records"
 
 
@@ -156,21 +156,31 @@ def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource
     return n
 
 
-def run_import(out, cfg: ImportConfig, workers: int = 2, scheduler_address: str | None = None) -> tuple[str, list]:
-    """Import the sources of ``cfg`` into a store at ``out`` (resuming an interrupted run).
+def _gather_records(described: list[dict], n_chunks: int, out: list):
+    """The stage's finish hook: per-chunk records -> the ``materials`` attribute (also appended to ``out``)."""
 
-    Returns:
-        (store path, per-material records with their warnings).
+    def finish(partial: Path) -> dict:
+        rdir = partial / RECORDS
+        recs = [r for c in range(n_chunks) for r in json.loads((rdir / f"{c}.json").read_text())]
+        out.extend({**d, **r} for d, r in zip(described, recs))
+        shutil.rmtree(rdir)
+        return {"materials": out}
+
+    return finish
+
+
+def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
+    """The import stage of ``cfg`` (sources planned and checked; nothing written) and the list that receives the
+    per-material records (with their warnings) when the stage finishes.
 
     Raises:
-        ImportInputError, ConfigError, StoreError: bad sources, options or output (nothing written).
+        ImportInputError, ConfigError: bad sources or options.
     """
-    cfg = cfg.check()
     layout, mats = plan(cfg)
     sources = [Path(s) for s in cfg.sources]
     described = [describe(m, cfg, _root_of(m, sources)) for m in mats]
     names = [d["preset"] for d in described]
-    resolved = {**as_dict(cfg), "sources": [str(Path(s).resolve()) for s in cfg.sources], "layout": layout}
+    resolved = {**cfg.as_dict(), "sources": [str(Path(s).resolve()) for s in cfg.sources], "layout": layout}
     # the materials found (and their files' sizes) are part of the config: resuming against changed sources is refused
     config = {**resolved, "materials": [{k: d[k] for k in ("name", "source", "files", "bytes")} for d in described]}
     attrs = {"presets": names, "param_names": {}, "categories": [],
@@ -190,18 +200,24 @@ def run_import(out, cfg: ImportConfig, workers: int = 2, scheduler_address: str 
                       "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)"})
         kind = KIND
     else:
-        arrays = {**map_specs(cfg.size), "seed": ArraySpec((), "uint64", "crc32 of the material name"),
-                  "preset": ArraySpec((2,), "int32", "index into attrs.presets; second column -1")}
+        arrays = svbrdf_array_specs("variants", cfg.size, 0)  # no params: imported materials have none
+        arrays["seed"] = dataclasses.replace(arrays["seed"], encoding="crc32 of the material name")
         kind = "variants"
-    with StoreWriter(out, kind, len(mats), cfg.chunk, arrays, config, attrs) as w:
-        done = w.done_samples()
-        if done:
-            log.info("resuming %s: %d of %d materials already imported", out, done, len(mats))
-        task = functools.partial(_chunk_task, partial=str(w.partial), mats=mats, cfg=cfg)
-        run_chunks(task, w.pending(), workers=workers, scheduler_address=scheduler_address, desc="import",
-                   unit="material", total_units=len(mats), done_units=done)
-        rdir = w.partial / RECORDS
-        recs = [r for c in range(w.n_chunks) for r in json.loads((rdir / f"{c}.json").read_text())]
-        materials = [{**d, **r} for d, r in zip(described, recs)]
-        shutil.rmtree(rdir)
-        return str(w.finalize({"materials": materials})), materials
+    records: list = []
+    n_chunks = -(-len(mats) // cfg.chunk)
+    stage = Stage(kind, len(mats), cfg.chunk, arrays, config, attrs, _chunk_task, dict(mats=mats, cfg=cfg),
+                  desc="import", unit="material", finish=_gather_records(described, n_chunks, records))
+    return stage, records
+
+
+def run_import(out, cfg: ImportConfig, workers: int = 2, scheduler_address: str | None = None) -> tuple[str, list]:
+    """Import the sources of ``cfg`` into a store at ``out`` (resuming an interrupted run).
+
+    Returns:
+        (store path, per-material records with their warnings).
+
+    Raises:
+        ImportInputError, ConfigError, StoreError: bad sources, options or output (nothing written).
+    """
+    stage, records = import_stage(cfg)
+    return stage.run(out, workers, scheduler_address), records

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from materials.capture import NORMAL_Z_MIN
 from materials.maps import normalize
 
 from . import ImportInputError
@@ -43,7 +44,7 @@ def finish(v: np.ndarray, directx: bool) -> np.ndarray:
     v = v.copy()
     if directx:
         v[..., 1] = -v[..., 1]
-    v[..., 2] = np.maximum(v[..., 2], 1e-3)
+    v[..., 2] = np.maximum(v[..., 2], NORMAL_Z_MIN)  # the one normal-z floor (materials/capture.py)
     return normalize(v)
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from materials.capture import NORMAL_Z_MIN
 from materials.maps import SVBRDF, normalize
 from materials.params import Param, ParamTable
 
@@ -69,7 +70,7 @@ def apply(m: SVBRDF, p: dict[str, float]) -> SVBRDF:
     specular = np.clip(_hue(maps["specular"], p["hue_shift"]) * p["specular_scale"], 0, 1)
     rough = np.clip(p["roughness_scale"] * np.clip(maps["roughness"], 0, 1) ** p["roughness_gamma"], 0, 1)
     n = maps["normal"]
-    nz = np.maximum(n[..., 2:3], 1e-3)
+    nz = np.maximum(n[..., 2:3], NORMAL_Z_MIN)
     normal = normalize(np.concatenate([n[..., :2] / nz * p["normal_strength"], np.ones_like(nz)], -1))
     return SVBRDF(normal=normal, diffuse=diffuse.astype(np.float32), specular=specular.astype(np.float32),
                   roughness=rough.astype(np.float32))

@@ -11,7 +11,8 @@ import numpy as np
 
 from materials.maps import SVBRDF
 
-from ..image_io import srgb_decode
+from svcore.image_io import srgb_decode
+
 from . import ImportInputError
 from .discover import MaterialSource, unique, walk
 from .normals import decode, finish

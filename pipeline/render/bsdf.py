@@ -1,6 +1,7 @@
 """The DESIGN.md Cook-Torrance/GGX BRDF as a Mitsuba 3 BSDF written in Python (drjit), name ``svgen_ggx``.
 
-Model (alpha = r**2, clamped to ``ALPHA_MIN``; every vector in the shading frame of the texel's normal):
+Model (alpha = r**2, clamped to ``ALPHA_MIN``; every vector in the shading frame of the texel's normal; the
+constants come from :mod:`materials.capture`, the numpy statement of the model is :mod:`materials.brdf_reference`):
 
     D = a^2 / (pi (NH^2 (a^2 - 1) + 1)^2)
     G = G1(NL) G1(NV),  G1(x) = x / (x (1 - k) + k),  k = a / 2
@@ -10,10 +11,10 @@ Model (alpha = r**2, clamped to ``ALPHA_MIN``; every vector in the shading frame
 The specular term is evaluated as ``D F / (4 (NL(1-k)+k) (NV(1-k)+k))``: algebraically identical (the NL NV of
 G cancel the 1/(4 NL NV)), but its denominator is >= k^2 > 0, so nothing divides by a cosine that reaches 0.
 
-Textures: the four maps are 10 channel planes, each a flat float buffer of H*W texels
-(:data:`CHANNELS`; see :func:`pack_maps`), looked up with nearest filtering from the surface uv: column
-``floor(u W)``, numpy row ``floor((1 - v) H)`` -- a Mitsuba ``rectangle`` has v = 0 at its bottom edge (y = -1),
-while numpy row 0 is the image top. Ten gathers are far cheaper than four bitmap textures, and the planes are
+Textures: the four maps are 10 channel planes, each a flat float buffer of H*W texels (:data:`CHANNELS`, the
+packed layout of :mod:`materials.maps`; see :func:`to_planes`), looked up with nearest filtering from the surface
+uv: column ``floor(u W)``, numpy row ``floor((1 - v) H)`` -- a Mitsuba ``rectangle`` has v = 0 at its bottom edge
+(y = -1), while numpy row 0 is the image top. Ten gathers are far cheaper than four bitmap textures, and the planes are
 exposed to ``mi.traverse`` as ``tex_<channel>`` so a loaded scene takes new maps without recompiling its kernel
 (a buffer is a kernel input, not a literal). Planes, not one interleaved buffer: a transform kernel can then
 write all channels as separate outputs of one kernel, with no scatter.
@@ -31,41 +32,37 @@ from __future__ import annotations
 
 import numpy as np
 
+from materials.capture import ALPHA_MIN, FRESNEL_SG_A, FRESNEL_SG_B, NORMAL_Z_MIN
+from materials.maps import CHANNEL_NAMES, MAP_SLICES, N_CHANNELS, SVBRDF, pack_maps
+
 from ..mi_env import load_mitsuba
 
 mi = load_mitsuba()
 import drjit as dr  # noqa: E402  (after load_mitsuba: drjit must see the libLLVM path first)
 
 PLUGIN_NAME = "svgen_ggx"
-#: channel planes of the texture, in order: normal xyz, diffuse rgb, specular rgb, roughness.
-CHANNELS = ("nx", "ny", "nz", "dr", "dg", "db", "sr", "sg", "sb", "rough")
-#: smallest alpha: r = 0.01. Keeps D (peak 1/(pi a^2) ~ 3e7) finite in float32 and the VNDF sampler stable.
-ALPHA_MIN = 1e-4
+#: channel planes of the texture, in the packed order: normal xyz, diffuse rgb, specular rgb, roughness.
+CHANNELS = CHANNEL_NAMES
 #: smallest probability of choosing the specular lobe (it is never exactly zero: F -> 1 at grazing angles).
 SPEC_PROB_MIN = 0.1
 _INV_PI = 1.0 / np.pi
 
 
-def pack_maps(normal: np.ndarray, diffuse: np.ndarray, specular: np.ndarray, roughness: np.ndarray) -> np.ndarray:
-    """Stack maps into the plugin's channel planes.
+def to_planes(packed: np.ndarray) -> np.ndarray:
+    """The plugin's channel planes of packed maps.
 
     Args:
-        normal: (H, W, 3) unit tangent-space normals.
-        diffuse: (H, W, 3) linear albedo.
-        specular: (H, W, 3) linear F0.
-        roughness: (H, W, 1) perceptual roughness.
+        packed: (H, W, 10) maps in the packed layout (:func:`materials.maps.pack_maps`).
 
     Returns:
         (10, H * W) float32 planes in :data:`CHANNELS` order, texels row-major with numpy row 0 = image top.
     """
-    h, w = normal.shape[:2]
-    stacked = np.concatenate([normal, diffuse, specular, roughness], axis=-1).astype(np.float32)
-    return np.ascontiguousarray(stacked.reshape(h * w, len(CHANNELS)).T)
+    return np.ascontiguousarray(packed.reshape(-1, N_CHANNELS).T)
 
 
 def _schlick_sg(s, vh):
     """Spherical-Gaussian Schlick Fresnel, s: Color3f (F0), vh: Float."""
-    return s + (1.0 - s) * dr.exp2((-5.55473 * vh - 6.98316) * vh)
+    return s + (1.0 - s) * dr.exp2((-FRESNEL_SG_A * vh - FRESNEL_SG_B) * vh)
 
 
 def _ggx_d(h, a2):
@@ -121,7 +118,7 @@ class GGXBSDF(mi.BSDF):
         normal (3-vector): constant tangent-space normal (default (0, 0, 1)); renormalised.
 
     Traversable parameters:
-        tex_nx ... tex_rough (Float, H*W each): the channel planes of :func:`pack_maps`; replace them through
+        tex_nx ... tex_rough (Float, H*W each): the channel planes of :func:`to_planes`; replace them through
         ``mi.traverse(scene)`` with planes of the same resolution.
     """
 
@@ -137,12 +134,12 @@ class GGXBSDF(mi.BSDF):
         n = np.asarray(props.get("normal", [0.0, 0.0, 1.0]), np.float64)
         n = (n / np.linalg.norm(n)).astype(np.float32)
         hw = (self.height, self.width)
-        planes = pack_maps(
-            np.broadcast_to(n, hw + (3,)),
-            np.broadcast_to(rgb("diffuse", 0.5), hw + (3,)),
-            np.broadcast_to(rgb("specular", 0.04), hw + (3,)),
-            np.full(hw + (1,), float(props.get("roughness", 0.5)), np.float32),
-        )
+        planes = to_planes(pack_maps(SVBRDF(
+            normal=np.broadcast_to(n, hw + (3,)),
+            diffuse=np.broadcast_to(rgb("diffuse", 0.5), hw + (3,)),
+            specular=np.broadcast_to(rgb("specular", 0.04), hw + (3,)),
+            roughness=np.full(hw + (1,), float(props.get("roughness", 0.5)), np.float32),
+        )))
         for name, plane in zip(CHANNELS, planes):
             setattr(self, "tex_" + name, mi.Float(plane))
         flags = (
@@ -179,11 +176,11 @@ class GGXBSDF(mi.BSDF):
         row = mi.UInt32(dr.clip(mi.Int32(dr.floor((1.0 - si.uv.y) * self.height)), 0, self.height - 1))
         idx = row * self.width + col
         c = [dr.gather(mi.Float, getattr(self, "tex_" + name), idx, active) for name in CHANNELS]
-        n = mi.Vector3f(c[0], c[1], c[2])
-        d = mi.Color3f(c[3], c[4], c[5])
-        s = mi.Color3f(c[6], c[7], c[8])
-        r = c[9]
-        n = dr.normalize(mi.Vector3f(n.x, n.y, dr.maximum(n.z, 1e-4)))
+        n = mi.Vector3f(*c[MAP_SLICES["normal"]])
+        d = mi.Color3f(*c[MAP_SLICES["diffuse"]])
+        s = mi.Color3f(*c[MAP_SLICES["specular"]])
+        (r,) = c[MAP_SLICES["roughness"]]
+        n = dr.normalize(mi.Vector3f(n.x, n.y, dr.maximum(n.z, NORMAL_Z_MIN)))
         alpha = dr.maximum(r * r, ALPHA_MIN)
         return n, d, s, alpha
 

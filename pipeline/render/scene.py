@@ -1,4 +1,4 @@
-"""The capture scene of DESIGN.md, loaded once and re-rendered per view.
+"""The capture scene of DESIGN.md, loaded once and re-rendered per view (its constants: :mod:`materials.capture`).
 
 Geometry: a 2 x 2 ``rectangle`` at z = 0 (normal +z), a pinhole camera at (0, 0, D) looking down -z with up +y
 and a 50 degree field of view, D = 1 / tan(25 deg), so the plane fills the picture exactly and film pixel
@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from materials.capture import CAMERA_DISTANCE, FLASH_INTENSITY, FOV_DEG, PLANE_SIZE
 from materials.maps import SVBRDF
 
 from . import bsdf as _bsdf
@@ -34,9 +35,6 @@ from .views import ViewParams, planes_of, transform_planes
 mi = _bsdf.mi
 dr = _bsdf.dr
 
-FOV_DEG = 50.0
-CAMERA_DISTANCE = 1.0 / math.tan(math.radians(FOV_DEG / 2))
-FLASH_INTENSITY = math.pi * CAMERA_DISTANCE**2
 SPHERE_RADIUS = 0.02
 LIGHT_MODELS = ("point", "sphere")
 SAMPLERS = ("independent", "stratified", "centre")
@@ -44,7 +42,7 @@ SAMPLERS = ("independent", "stratified", "centre")
 
 def scene_constants() -> dict:
     """Scene constants for store attributes."""
-    return {"fov_deg": FOV_DEG, "camera_distance": CAMERA_DISTANCE, "plane_size": 2.0,
+    return {"fov_deg": FOV_DEG, "camera_distance": CAMERA_DISTANCE, "plane_size": PLANE_SIZE,
             "flash_intensity_w_sr": FLASH_INTENSITY, "sphere_radius": SPHERE_RADIUS}
 
 

@@ -8,63 +8,15 @@ image encoding is a table lookup; hence the same bytes for any number of workers
 from __future__ import annotations
 
 import functools
-import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import PRESETS, as_dict
-from ..errors import ConfigError, StoreError
-from ..log import get_logger
-from ..parallel import run_chunks
-from ..store import StoreWriter, write_chunk
 from materials.maps import MAP_NAMES
+from svcore.errors import StoreError
 
-
-log = get_logger(__name__)
-
-
-@dataclass(frozen=True)
-class RenderConfig:
-    """`svgen render`: flash photographs of every SVBRDF of a variants or blends store."""
-
-    views: int = 10
-    """Views per SVBRDF (the paper: 10), each with its own light offset, zoom, rotation, shift and seed."""
-    res: int = 256
-    """Render resolution (square, 16..2048); the paper renders 288 and crops 256 at training time."""
-    spp: int = 1
-    """Samples per pixel (benchmarks/bench_render_quality.py: 1 pixel-centre sample is within 0.2 % RMSE of a
-    converged sphere-light reference)."""
-    light: str = "point"
-    """Flash model: "point", or "sphere" (radius 0.02, the paper's light)."""
-    sampler: str = "centre"
-    """Pixel sampling: "centre" (deterministic pixel centres; spp a square), "stratified", "independent"."""
-    seed: int = 0
-    """Master seed; view k of SVBRDF s uses derive_seed(seed, "render", s, k)."""
-    chunk: int = 2
-    """SVBRDFs per zarr chunk (one dask task renders and writes one chunk: chunk * views images)."""
-
-    def check(self) -> "RenderConfig":
-        from .scene import LIGHT_MODELS, SAMPLERS
-
-        for name in ("views", "spp", "chunk"):
-            v = getattr(self, name)
-            if not isinstance(v, int) or v < 1:
-                raise ConfigError(f"{name} must be a positive integer, got {v!r}")
-        if not isinstance(self.res, int) or not 16 <= self.res <= 2048:
-            raise ConfigError(f"res must be an integer in [16, 2048], got {self.res!r}")
-        if self.light not in LIGHT_MODELS:
-            raise ConfigError(f"unknown light model {self.light!r}; use one of {', '.join(LIGHT_MODELS)}")
-        if self.sampler not in SAMPLERS:
-            raise ConfigError(f"unknown sampler {self.sampler!r}; use one of {', '.join(SAMPLERS)}")
-        if self.sampler != "independent" and math.isqrt(self.spp) ** 2 != self.spp:
-            raise ConfigError(f"sampler {self.sampler!r} needs a square spp (1, 4, 9 ...), got {self.spp}")
-        if not isinstance(self.seed, int) or self.seed < 0:
-            raise ConfigError(f"seed must be a non-negative integer, got {self.seed!r}")
-        return self
-
-
-PRESETS[RenderConfig] = {"default": {}, "tiny": {"views": 2, "res": 64}, "paper": {"views": 10, "res": 288}}
+from ..config import RenderConfig
+from ..runner import Stage
+from ..store import StoreWriter, write_chunk
 
 _SCENES: dict[tuple, object] = {}
 _INPUTS: dict[str, SVBRDFStore] = {}
@@ -110,7 +62,7 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
 def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], cfg: RenderConfig, n: int) -> int:
     """Worker: render the SVBRDFs of chunk c and write the whole chunk. Returns the number of views."""
     from ..svbrdf_store import SVBRDFInputs, decode_maps
-    from .bsdf import dr
+    from ..mi_env import dr
 
     dr.set_thread_count(max(1, threads))
     if inputs not in _INPUTS:  # opening the stores costs ~6 ms each: once per worker process
@@ -139,25 +91,22 @@ def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], 
     return (stop - start) * cfg.views
 
 
-def render_writer(inputs, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:
-    """The StoreWriter of a render run (not entered yet) and the number of SVBRDFs; validates config and inputs.
+def render_stage(inputs, cfg: RenderConfig) -> Stage:
+    """The render stage of ``inputs`` under ``cfg`` (opens and checks the inputs; writes nothing).
 
     Args:
         inputs: one or more variants/blends/stress store paths, rendered as one sequence in this order.
 
     Raises:
-        StoreError: an input missing or of the wrong kind; output exists.
-        ConfigError: bad options.
+        StoreError: an input missing or of the wrong kind.
     """
     from ..svbrdf_store import SVBRDFInputs
     from .scene import scene_constants
     from .store import KIND, array_specs
     from .views import R_MAX, R_MIN, ZOOM_MAX, ZOOM_MIN
 
-    cfg = cfg.check()
     src = SVBRDFInputs(inputs)
     n = len(src)
-    arrays = array_specs(cfg.views, cfg.res, src.size)
     attrs = {
         "inputs": src.describe(),
         "presets": src.presets,
@@ -171,8 +120,15 @@ def render_writer(inputs, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:
         "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)",
     }
     # the inputs' identity is part of the config: resuming against different inputs must be refused
-    config = {**as_dict(cfg), "inputs": attrs["inputs"]}
-    return StoreWriter(out, KIND, n, cfg.chunk, arrays, config, attrs), n
+    config = {**cfg.as_dict(), "inputs": attrs["inputs"]}
+    return Stage(KIND, n, cfg.chunk, array_specs(cfg.views, cfg.res, src.size), config, attrs, _chunk_task,
+                 dict(inputs=_paths(inputs), cfg=cfg, n=n), desc="render", unit="view", units_per_sample=cfg.views)
+
+
+def render_writer(inputs, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:
+    """The StoreWriter of a render run (not entered yet) and the number of SVBRDFs (benchmarks drive it)."""
+    stage = render_stage(inputs, cfg)
+    return stage.writer(out), stage.n
 
 
 def chunk_task(w: StoreWriter, inputs, cfg: RenderConfig, n: int):
@@ -192,15 +148,6 @@ def run_render(inputs, out, cfg: RenderConfig, workers: int = 2, scheduler_addre
 
     Raises:
         StoreError: an input missing, of the wrong kind or with invalid maps; output exists or is being written.
-        ConfigError: bad options, unreachable scheduler.
+        ConfigError: unreachable scheduler.
     """
-    cfg = cfg.check()
-    writer, n = render_writer(inputs, out, cfg)
-    with writer as w:
-        done = w.done_samples()
-        if done:
-            log.info("resuming %s: %d of %d SVBRDFs already rendered", out, done, n)
-        run_chunks(chunk_task(w, inputs, cfg, n), w.pending(), workers=workers,
-                   scheduler_address=scheduler_address, desc="render", unit="view", total_units=n * cfg.views,
-                   done_units=done * cfg.views)
-        return str(w.finalize())
+    return render_stage(inputs, cfg).run(out, workers, scheduler_address)

@@ -28,7 +28,8 @@ import numpy as np
 
 from materials.maps import MAP_NAMES, SVBRDF
 
-from ..errors import StoreError
+from svcore.errors import StoreError
+
 from ..store import ArraySpec, ChunkCache, open_store, read_region
 from ..svbrdf_store import decode_maps, map_specs
 from .encoding import ENCODING, decode_srgb8

@@ -9,10 +9,11 @@ construction.
 View distribution (:func:`draw_view`), all independent:
 
 * light offset (x, y) in the camera plane z = D, in world units (the plane spans [-1, 1]^2):
-  radius sqrt(U(R_MIN^2, R_MAX^2)) (uniform over the annulus), angle U(0, 2 pi). For a flat mirror the
-  highlight is at the midpoint (x/2, y/2) of camera and light, so R_MAX = 0.7 keeps its centre within 0.35 of
-  the image centre (the middle ~35 % of the half-width). R_MIN = 0.1 keeps a sphere flash (radius <= 0.05) off
-  the camera's frustum (a sphere at lateral offset rho blocks camera rays unless rho > ~1.5 radius).
+  radius sqrt(U(R_MIN^2, R_MAX^2)) (uniform over the annulus; ``materials.capture.LIGHT_R_MIN``, ``LIGHT_R_MAX``),
+  angle U(0, 2 pi). For a flat mirror the highlight is at the midpoint (x/2, y/2) of camera and light, so
+  R_MAX = 0.7 keeps its centre within 0.35 of the image centre (the middle ~35 % of the half-width).
+  R_MIN = 0.1 keeps a sphere flash (radius <= 0.05) off the camera's frustum (a sphere at lateral offset rho
+  blocks camera rays unless rho > ~1.5 radius).
 * zoom: tiles of the base map across the picture width, log-uniform in [ZOOM_MIN, ZOOM_MAX] = [0.7, 1.4]
   (mild magnification to mild minification; minified views are box-prefiltered by supersampling).
   The transform runs as one drjit kernel (numpy fancy-index gathers took ~40 ms per 256^2 view here, the
@@ -28,12 +29,16 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from materials.maps import SVBRDF
+from materials.capture import LIGHT_R_MAX as R_MAX
+from materials.capture import LIGHT_R_MIN as R_MIN
+from materials.capture import NORMAL_Z_MIN
+from materials.maps import N_CHANNELS, SVBRDF, pack_maps, unpack_maps
 
-from ..seeds import rng_for
-from .bsdf import CHANNELS, dr, mi, pack_maps
+from svcore.seeds import rng_for
 
-R_MIN, R_MAX = 0.1, 0.7
+from ..mi_env import dr, mi
+from .bsdf import to_planes
+
 ZOOM_MIN, ZOOM_MAX = 0.7, 1.4
 #: field order of :meth:`ViewParams.as_array` (the per-view row stored in a renders store).
 VIEW_FIELDS = ("light_x", "light_y", "zoom", "rotation", "shift_u", "shift_v", "seed")
@@ -120,7 +125,7 @@ def transform_planes(base_planes: list, base: int, view: ViewParams, res: int,
     needs no reduction kernel.
 
     Args:
-        base_planes: 10 mi.Float of width base * base (:func:`pipeline.render.bsdf.pack_maps` planes).
+        base_planes: 10 mi.Float of width base * base (:func:`planes_of` planes).
         base: side length of the square base maps.
         view: the view.
         res: output side length.
@@ -146,7 +151,7 @@ def transform_planes(base_planes: list, base: int, view: ViewParams, res: int,
     zoom = dr.opaque(mi.Float, view.zoom)
     su = dr.opaque(mi.Float, view.shift_u)
     sv = dr.opaque(mi.Float, view.shift_v)
-    acc = [mi.Float(0.0) for _ in CHANNELS]
+    acc = [mi.Float(0.0) for _ in range(N_CHANNELS)]
     for i in range(ss):
         for j in range(ss):
             # picture coordinates in picture widths, origin at the centre, x right, y up
@@ -174,7 +179,8 @@ def transform_planes(base_planes: list, base: int, view: ViewParams, res: int,
                     acc[k] = dr.fma(dr.gather(mi.Float, plane, idx), w, acc[k])
     if ss > 1:
         acc = [a * (1.0 / (ss * ss)) for a in acc]
-    n = dr.normalize(mi.Vector3f(c * acc[0] - s * acc[1], s * acc[0] + c * acc[1], dr.maximum(acc[2], 1e-4)))
+    n = dr.normalize(mi.Vector3f(c * acc[0] - s * acc[1], s * acc[0] + c * acc[1],
+                                 dr.maximum(acc[2], NORMAL_Z_MIN)))
     out = [n.x, n.y, n.z] + [dr.clip(a, 0.0, 1.0) for a in acc[3:]]
     dr.eval(*out)
     return out
@@ -182,14 +188,12 @@ def transform_planes(base_planes: list, base: int, view: ViewParams, res: int,
 
 def planes_of(m: SVBRDF) -> list:
     """numpy SVBRDF (H, W, C) -> 10 mi.Float channel planes."""
-    return [mi.Float(p) for p in pack_maps(m.normal, m.diffuse, m.specular, m.roughness)]
+    return [mi.Float(p) for p in to_planes(pack_maps(m))]
 
 
 def svbrdf_of(planes: list, res: int) -> SVBRDF:
     """10 channel planes (mi.Float or numpy, res*res each) -> numpy SVBRDF of (res, res, C) float32 maps."""
-    a = np.stack([np.asarray(p, np.float32) for p in planes], axis=-1).reshape(res, res, len(CHANNELS))
-    return SVBRDF(normal=a[..., 0:3].copy(), diffuse=a[..., 3:6].copy(), specular=a[..., 6:9].copy(),
-                  roughness=a[..., 9:10].copy())
+    return unpack_maps(np.stack([np.asarray(p, np.float32) for p in planes], axis=-1).reshape(res, res, N_CHANNELS))
 
 
 def transform_maps(base: SVBRDF, view: ViewParams, res: int) -> SVBRDF:

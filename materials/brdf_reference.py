@@ -1,7 +1,9 @@
-"""An independent numpy evaluation of the capture scene with a point flash: the DESIGN.md formula per pixel.
+"""The reference BRDF and capture-scene render: the DESIGN.md formula per pixel, numpy float64.
 
-No Mitsuba here: geometry, BRDF and light are written out from DESIGN.md in float64, to check the plugin and
-the scene end to end (``tests/test_render_reference.py``) and to serve as ground truth for other renderers.
+The one numpy statement of the model. The drjit plugin (``pipeline/render/bsdf.py``) and the torch renderer
+(``train/brdf.py``) are rewritten for speed and float32 stability and are held to this module by the tests
+(``tests/test_render_reference.py``, ``test_stability.py``, ``test_agreement.py``); the catalogue's contact
+sheet renders with it. Constants come from :mod:`materials.capture`.
 
 For a point p on the plane seen through a pixel, camera c = (0, 0, D), light q = (lx, ly, D):
 
@@ -15,9 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from materials.maps import SVBRDF
-
-ALPHA_MIN = 1e-4  # same clamp as the plugin (r >= 0.01)
+from .capture import ALPHA_MIN, CAMERA_DISTANCE, FLASH_INTENSITY, FRESNEL_SG_A, FRESNEL_SG_B
+from .maps import SVBRDF
 
 
 def design_brdf(n: np.ndarray, v: np.ndarray, l: np.ndarray, d: np.ndarray, s: np.ndarray,
@@ -42,19 +43,19 @@ def design_brdf(n: np.ndarray, v: np.ndarray, l: np.ndarray, d: np.ndarray, s: n
     D = a * a / (np.pi * (nh * nh * (a * a - 1) + 1) ** 2)
     k = a / 2
     G = nl / (nl * (1 - k) + k) * nv / (nv * (1 - k) + k)
-    F = s + (1 - s) * 2.0 ** ((-5.55473 * vh - 6.98316) * vh)
+    F = s + (1 - s) * 2.0 ** ((-FRESNEL_SG_A * vh - FRESNEL_SG_B) * vh)
     return d * (1 - s) / np.pi + D * F * G / (4 * nl * nv)
 
 
-def render_point_flash(maps: SVBRDF, light_xy: tuple[float, float], intensity: float, camera_distance: float,
-                       subsamples: int = 1, return_spread: bool = False):
+def render_point_flash(maps: SVBRDF, light_xy: tuple[float, float], intensity: float = FLASH_INTENSITY,
+                       camera_distance: float = CAMERA_DISTANCE, subsamples: int = 1, return_spread: bool = False):
     """Per-pixel radiance of the capture scene under a point flash, unclipped.
 
     Args:
         maps: screen-space maps, (res, res, C), numpy row 0 = image top; texel (i, j) covers pixel (i, j).
         light_xy: flash offset in the camera plane z = camera_distance.
-        intensity: point light intensity (W/sr).
-        camera_distance: D (the plane [-1, 1]^2 at z = 0 fills the picture).
+        intensity: point light intensity (W/sr); the capture scene's by default.
+        camera_distance: D (the plane [-1, 1]^2 at z = 0 fills the picture); the capture scene's by default.
         subsamples: k: average over a k x k grid of points per pixel (1: the pixel centre).
         return_spread: also return the per-pixel standard deviation over the k x k points (the pixel-jitter
             noise of a 1-spp render).

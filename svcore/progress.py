@@ -15,9 +15,15 @@ def progress(total: int, desc: str, unit: str = "it", initial: int = 0, disable:
         desc: label on the left.
         unit: what one unit is ("view", "variant", "it").
         initial: units already done (resumed runs).
-        disable: force on/off; default: on unless ``SVGEN_NO_PROGRESS`` is set.
+        disable: force on/off; default: off when ``SVGEN_NO_PROGRESS`` is set or stderr is not a terminal
+            (logs and CI captures get no carriage-return noise), on otherwise; ``SVGEN_PROGRESS=1`` forces it on.
     """
     if disable is None:
-        disable = bool(os.environ.get("SVGEN_NO_PROGRESS"))
+        if os.environ.get("SVGEN_NO_PROGRESS"):
+            disable = True
+        elif os.environ.get("SVGEN_PROGRESS"):
+            disable = False
+        else:
+            disable = not sys.stderr.isatty()
     return tqdm(total=total, desc=desc, unit=unit, initial=initial, disable=disable, file=sys.stderr,
                 dynamic_ncols=True, smoothing=0.1)

@@ -1,0 +1,188 @@
+"""What every benchmark script shares: paths, timing, machine information and the results writer.
+
+Scripts run as ``python3 benchmarks/<script>.py`` from anywhere. They import the project as the installed package
+(``scripts/setup.sh`` installs it in editable mode; a worktree sets ``PYTHONPATH``), exactly as users and the
+tests do, and no script edits ``sys.path``: Python puts ``benchmarks/`` first on the path of the script it runs,
+which is how ``import harness`` and imports between benchmark scripts resolve. Which code was measured is
+recorded in every results file (:func:`machine_info`: the package's folder and git commit), so a result
+measured on another checkout than the one it is written into shows it.
+
+Nothing here imports torch, drjit or mitsuba: drjit must be imported after ``pipeline.mi_env`` has found libLLVM,
+and library versions come from the installed distributions' metadata instead.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import hashlib
+import importlib.util
+import json
+import os
+import platform
+import shlex
+import statistics
+import subprocess
+import sys
+import time
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Callable, Iterable, NamedTuple
+
+#: repository root (the folder holding benchmarks/).
+ROOT = Path(__file__).resolve().parents[1]
+#: where results files are committed.
+RESULTS = ROOT / "benchmarks" / "results"
+#: where the README's charts are written.
+IMG = ROOT / "docs" / "img"
+#: the distributions whose versions every results file records.
+LIBRARIES = ("numpy", "torch", "mitsuba", "drjit", "zarr", "numcodecs", "dask", "distributed", "matplotlib")
+
+
+class Timing(NamedTuple):
+    """The result of the last call and the median CPU (all threads of this process) and wall seconds."""
+
+    result: Any
+    cpu_s: float
+    wall_s: float
+
+
+def timed(f: Callable[[], Any], reps: int = 1) -> Timing:
+    """Call ``f`` ``reps`` times; median CPU and wall seconds per call (the medians resist a shared machine)."""
+    cpu, wall, out = [], [], None
+    for _ in range(max(1, reps)):
+        c, w = time.process_time(), time.perf_counter()
+        out = f()
+        cpu.append(time.process_time() - c)
+        wall.append(time.perf_counter() - w)
+    return Timing(out, float(statistics.median(cpu)), float(statistics.median(wall)))
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()
+
+
+def _version(dist: str) -> str | None:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def _code() -> dict:
+    """Where the imported project lives and its git commit (``dirty`` when the tree has uncommitted changes)."""
+    spec = importlib.util.find_spec("pipeline")
+    where = Path(spec.origin).resolve().parents[1] if spec and spec.origin else None
+    out: dict[str, Any] = {"path": str(where) if where else None, "commit": None, "dirty": None}
+    if where is not None:
+        try:
+            git = ["git", "-C", str(where)]
+            out["commit"] = subprocess.run(git + ["rev-parse", "HEAD"], capture_output=True, text=True,
+                                           check=True, timeout=10).stdout.strip()
+            out["dirty"] = bool(subprocess.run(git + ["status", "--porcelain", "--untracked-files=no"],
+                                               capture_output=True, text=True, timeout=10).stdout.strip())
+        except (OSError, subprocess.SubprocessError):
+            pass
+    return out
+
+
+def machine_info() -> dict:
+    """The machine and software a result was measured on; the same keys in every results file.
+
+    Keys: platform, machine (architecture), cpu (model), cpus, python, versions (:data:`LIBRARIES`, None when
+    not installed), threads (torch / drjit pools, None when the script has not imported them), loadavg_1min (at
+    the time of the call: other work on the machine slows the figures down), code (the measured checkout).
+    """
+    torch, dr = sys.modules.get("torch"), sys.modules.get("drjit")
+    return {
+        "platform": platform.platform(), "machine": platform.machine(), "cpu": _cpu_model(),
+        "cpus": os.cpu_count(), "python": platform.python_version(),
+        "versions": {lib: _version(lib) for lib in LIBRARIES},
+        "threads": {"torch": torch.get_num_threads() if torch else None,
+                    "drjit": dr.thread_count() if dr else None},
+        "loadavg_1min": round(os.getloadavg()[0], 2),
+        "code": _code(),
+    }
+
+
+def parser(doc: str | None, note: bool = True) -> argparse.ArgumentParser:
+    """An argument parser described by the first line of the script's docstring, with ``--note`` for scripts
+    that write results (:func:`write_results`)."""
+    ap = argparse.ArgumentParser(description=(doc or "").strip().split("\n")[0])
+    if note:
+        ap.add_argument("--note", default=None,
+                        help="a note stored in the results (e.g. 'shared machine: rerun quietly before quoting')")
+    return ap
+
+
+def command() -> str:
+    """The command line that ran this script, as a user would type it from the repository root."""
+    script = Path(sys.argv[0]).resolve()
+    try:
+        script = script.relative_to(ROOT)
+    except ValueError:
+        pass
+    return shlex.join(["python3", str(script), *sys.argv[1:]])
+
+
+def write_results(path: str | os.PathLike, result: dict, note: str | None = None) -> Path:
+    """Write a results JSON: ``result`` plus ``command``, ``machine`` (:func:`machine_info`) and ``note``.
+
+    Keys the result already has win (a script may record its own command). Parent folders are created.
+
+    Returns:
+        The path written.
+    """
+    out = {**result}
+    out.setdefault("command", command())
+    out.setdefault("machine", machine_info())
+    if note is not None:
+        out["note"] = note
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(out, indent=1) + "\n")
+    return path
+
+
+def write_csv(path: str | os.PathLike, rows: Iterable[dict], columns: list[str] | None = None) -> Path:
+    """Write dict rows as CSV with a header (``columns``, default the first row's keys, in order)."""
+    rows = list(rows)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns or list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return path
+
+
+def tree_digest(path: str | os.PathLike) -> dict[str, str]:
+    """relative file path -> sha256 of every file under ``path`` (byte-identity of stores)."""
+    root = Path(path)
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def pyplot():
+    """matplotlib's pyplot on the file-only Agg backend (benchmarks and DVC stages have no display)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(fig, path: str | os.PathLike, dpi: float | None = None) -> Path:
+    """Lay out, write (parent folders created) and close a matplotlib figure; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    pyplot().close(fig)
+    return path

@@ -1,0 +1,73 @@
+"""The one skeleton of every data stage: plan -> store writer -> chunk tasks (dask) -> finalize.
+
+A stage module (sample, blend, stress, render) only says what it writes: the store kind, sample count, chunk
+length, array specs, the configuration that must match for a resume, attributes, and a picklable chunk task
+``task(c, threads, *, partial, **task_kw) -> units`` that makes and writes chunk ``c``. :class:`Stage` does
+the rest the same way for all of them: create or resume the ``.partial`` store, skip finished chunks, show one
+progress bar in the stage's units, and move the store into place when every chunk is written.
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from svcore.log import get_logger
+
+from .parallel import run_chunks
+from .store import ArraySpec, StoreWriter
+
+log = get_logger(__name__)
+
+
+@dataclass
+class Stage:
+    """A planned data stage (nothing written yet).
+
+    Attributes:
+        kind: store kind ("variants", "blends", "stress", "renders").
+        n: samples of the store (the sample axis).
+        chunk: samples per chunk (one task writes one chunk).
+        arrays: array name -> spec of one sample.
+        config: the resolved configuration; its hash decides whether a ``.partial`` store may be resumed.
+        attrs: further store attributes.
+        task: module-level worker function ``(c, threads, *, partial, **task_kw) -> units written``.
+        task_kw: its keyword arguments (picklable: they travel to the dask workers).
+        desc, unit: progress label and unit ("variant", "view").
+        units_per_sample: progress units per sample (render: views per SVBRDF).
+        finish: optional, called in this process once every chunk is written, with the ``.partial`` store's
+            path; returns attributes added at finalize (the import stage gathers its per-chunk records).
+    """
+
+    kind: str
+    n: int
+    chunk: int
+    arrays: dict[str, ArraySpec]
+    config: dict[str, Any]
+    attrs: dict[str, Any]
+    task: Callable[..., int]
+    task_kw: dict[str, Any] = field(default_factory=dict)
+    desc: str = ""
+    unit: str = "sample"
+    units_per_sample: int = 1
+    finish: Callable[[Path], dict[str, Any]] | None = None
+
+    def writer(self, out) -> StoreWriter:
+        """The store writer of this stage at ``out`` (not entered yet)."""
+        return StoreWriter(out, self.kind, self.n, self.chunk, self.arrays, self.config, self.attrs)
+
+    def task_for(self, w: StoreWriter) -> Callable[[int, int], int]:
+        """The picklable ``(chunk id, threads) -> units`` of this stage writing into ``w``'s partial store."""
+        return functools.partial(self.task, partial=str(w.partial), **self.task_kw)
+
+    def run(self, out, workers: int = 2, scheduler_address: str | None = None) -> str:
+        """Write (or resume) the store at ``out``. Returns its path."""
+        with self.writer(out) as w:
+            done = w.done_samples()
+            if done:
+                log.info("resuming %s: %d of %d samples already written", out, done, self.n)
+            run_chunks(self.task_for(w), w.pending(), workers=workers, scheduler_address=scheduler_address,
+                       desc=self.desc or self.kind, unit=self.unit, total_units=self.n * self.units_per_sample,
+                       done_units=done * self.units_per_sample)
+            return str(w.finalize(self.finish(w.partial) if self.finish is not None else None))

@@ -1,0 +1,7 @@
+"""svcore: the infrastructure every svgen package shares (materials, pipeline, train).
+
+errors (the user-error family), log (one logger per package), progress (the one progress bar), seeds
+(derive_seed and its named purposes), image_io (image files at the edges), config (typed configs, presets,
+params.yaml and ``--set``), cli (the one-line error funnel, ``--version``). Nothing here imports mitsuba,
+drjit, dask or torch.
+"""
