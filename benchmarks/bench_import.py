@@ -127,7 +127,8 @@ def main(argv=None) -> dict:
                       "matsynth_4069_minutes": round(4069 / (n / two) / 60, 1)},
         "per_layout_one_process": per_layout,
         "bar_materials_per_s": BAR, "meets_bar": n / two >= BAR,
-        "fixture_write_s": round(gen_s, 1), "cpus": os.cpu_count(), "python": platform.python_version(),
+        "fixture_write_s": round(gen_s, 1), "cpus": os.cpu_count(),
+        "load_average_1_5_15_min_at_end": [round(x, 2) for x in os.getloadavg()], "python": platform.python_version(),
         "note": "measured on a machine shared with other jobs (2 cores, 5 concurrent sessions): rerun quietly; "
                 "workers_2 includes starting the dask cluster (~3 s)",
     }
