@@ -19,6 +19,7 @@ Writes benchmarks/results/import.json. Usage: python3 benchmarks/bench_import.py
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import tempfile
 from pathlib import Path
@@ -71,6 +72,8 @@ def import_s(src: Path, out: Path, size: int, workers: int) -> float:
 
 def main(argv=None) -> dict:
     ap = parser(__doc__)
+    ap.set_defaults(note="measured on a machine shared with other jobs (2 cores, 5 concurrent sessions): rerun "
+                         "quietly")
     ap.add_argument("--materials", type=int, default=4, help="distinct materials written (half of each layout)")
     ap.add_argument("--copies", type=int, default=8,
                     help="each imported this many times (symlinked folders with their own names; page-cached reads)")
@@ -113,6 +116,7 @@ def main(argv=None) -> dict:
         "per_layout_one_process": per_layout,
         "bar_materials_per_s": BAR, "meets_bar": n / two >= BAR,
         "fixture_write_s": round(gen_s, 1),
+        "load_average_1_5_15_min_at_end": [round(x, 2) for x in os.getloadavg()],
         "timing_note": "workers_2 includes starting the dask cluster (~3 s)",
     }
     write_results(a.out, res, note=a.note)
