@@ -1,10 +1,10 @@
-"""`svgen import` as a stage: plan the materials, convert them in dask chunk tasks, write a variants store (or a
-renders store for `--as renders`) through pipeline.store, resumable like every stage.
+"""`svgen import` as a stage: plan the materials, then :class:`pipeline.runner.Stage` runs the chunk tasks that
+convert them and writes a variants store (or a renders store for `--as renders`), resumable like every stage.
 
 A chunk task is a pure function of (config, material list, source bytes): the same bytes for any worker count.
 What a worker learns about a material (workflow, normal convention decided, clipped values, warnings) goes to a
-per-chunk JSON record next to the chunk, written before the chunk's completion marker; the records become the
-store's ``materials`` attribute at finalize.
+per-chunk JSON record next to the chunk, written before the chunk's completion marker; the stage's ``finish`` hook
+gathers the records into the store's ``materials`` attribute at finalize.
 """
 from __future__ import annotations
 
