@@ -8,11 +8,11 @@ training loss and the held-out RMSEs (re-rendering and per map). Both baselines 
 
 The budget becomes a step count before each run (``calibrate_steps``: it/s of a short throwaway run of the same
 width), because a learning-rate schedule needs ``optim.iterations`` up front. The run is then ``svtrain fit``'s:
-the same ``build`` (seeded init, Adam, loss generator), ``train_step`` (schedule, gradient clipping),
-``make_loss``, ``PairDataset`` and ``make_loader`` (the batches of step t a pure function of (seed, t)), so the
-final point is the model ``svtrain fit`` gives with ``optim.iterations`` = that step count. Evaluation time is not
-counted as training time. The loss compile (torch.compile, one-off, cached on disk) runs before the clock starts;
-whether it is used at all is decided by a short eager-vs-compiled timing of the loss at the start.
+``train.fit.Trainer`` (seeded init, Adam, loss generator, the step with its schedule and gradient clipping, the
+loader whose batches of step t are a pure function of (seed, t)), iterated exactly as ``svtrain fit`` iterates it,
+so the final point is the model ``svtrain fit`` gives with ``optim.iterations`` = that step count. Evaluation time
+is not counted as training time. The loss compile (torch.compile, one-off, cached on disk) runs before the clock
+starts; whether it is used at all is decided by a short eager-vs-compiled timing of the loss at the start.
 
 Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/results/eval_budget.md`` (the
 ``--table-width`` model, by default the compact one, after its budget, model vs baselines) and ``docs/img/chart_training.png``
@@ -35,9 +35,9 @@ import psutil
 import torch
 
 from train.config import parse_overrides, preset, resolve
-from train.data import PairDataset, make_loader, open_source, packed_maps, split_by_source
+from train.data import PairDataset, open_source, packed_maps, split_by_source
 from train.evaluate import COLUMNS, evaluate, markdown, metrics, train_means
-from train.fit import _seeded, build, lr_at, train_step
+from train.fit import Trainer, lr_at
 from train.loss import make_loss
 from train.net import count_parameters
 
@@ -174,16 +174,10 @@ def calibrate_steps(cfg, ds, budget_s: float, probe_steps: int = 60, skip: int =
     untimed: loader workers starting, first batches and the loss compile are slower) of a throwaway model of the
     same width on the same loader. A learning-rate schedule needs the step
     count before the run starts, so the budget becomes ``optim.iterations``, as ``svtrain fit`` would be given."""
-    o = cfg.optim
-    model, opt, gen = build(cfg)
-    loss_fn = make_loss(o.compile_loss)
-    loader = make_loader(ds, o.batch_size, 0, probe_steps, cfg.data.workers)
-    loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
     t0 = None
-    for k, (image, maps) in enumerate(loader):
-        if k == skip:
+    for done, _, _ in Trainer(cfg).run(ds, 0, probe_steps):  # svtrain fit's loop
+        if done == skip:
             t0 = time.perf_counter()
-        train_step(model, opt, loss_fn, image, maps, gen, o, k)
     rate = (probe_steps - skip) / (time.perf_counter() - t0)
     return max(1, int(round(budget_s * rate))), rate
 
@@ -197,11 +191,8 @@ def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, me
     setup_s = time.perf_counter() - t0
     cfg.optim.iterations = iterations
     o = cfg.optim
-    model, opt, gen = build(cfg)
-    loss_fn = make_loss(o.compile_loss)
-    loader = make_loader(ds, o.batch_size, 0, iterations, cfg.data.workers)
-    loader.generator = torch.Generator().manual_seed(_seeded(o.seed, 3))
-    loader.timeout = 300  # a stuck worker fails the run instead of hanging it
+    trainer = Trainer(cfg)  # svtrain fit's loop: build, loader, step (schedule, clipping), device, precision
+    model = trainer.net
 
     proc = psutil.Process()
     points, losses, norms = [], [], []
@@ -230,11 +221,10 @@ def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, me
     t_start, cpu_start = time.perf_counter(), cpu_seconds(proc)
     do_eval(0.0, cpu_start)
     load0 = os.getloadavg()[0]
-    for image, maps in loader:
-        loss, norm = train_step(model, opt, loss_fn, image, maps, gen, o, step)
+    # timeout: a stuck loader worker fails the run instead of hanging it
+    for step, loss, norm in trainer.run(ds, 0, iterations, timeout=300):
         losses.append(loss)
         norms.append(norm)
-        step += 1
         if step == marks[0]:
             marks.pop(0)
             do_eval(time.perf_counter() - t_start - eval_wall, cpu_start)  # evaluations are not training time

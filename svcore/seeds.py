@@ -26,6 +26,7 @@ STREAMS: dict[str, tuple[str, int]] = {
     "train.loss_configs": ("train", 101),  # the rendering loss's light/view draws (checkpointed generator)
     "train.dropout": ("train", 102),  # torch's global RNG after build: dropout
     "train.loader": ("train", 103),  # the DataLoader's own generator (worker base seeds)
+    "train.rank_dropout": ("train", 104),  # dropout of data-parallel rank r >= 1 (rank 0 keeps train.dropout)
     "split.holdout": ("eval", 0),  # which source presets are held out
 }
 

@@ -7,6 +7,7 @@ import io
 
 import numpy as np
 import pytest
+import torch
 import zarr
 from PIL import Image
 
@@ -55,6 +56,7 @@ def world(tmp_path_factory):
     (d / "notes.png").write_text("this is not an image")
     Image.fromarray(np.zeros((4, 300, 3), np.uint8)).save(d / "thin.png")
     (d / "photo.jpg").write_bytes(b"")
+    (d / "empty").mkdir()
     code, err = call(svtrain, "svtrain", ["fit", "--out", d / "run", "--iterations", 1, *SMALL])
     assert code == 0, err
     return d
@@ -135,6 +137,36 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
      "cannot read image"),
     ("predict: unsupported format", T, ["predict", "{d}/bad.yaml", "--checkpoint", "{d}/run", "--out", "{d}/o.zarr"],
      "unsupported format"),
+    # devices, precisions, data-parallel width (issue #10)
+    ("fit: unknown device", T, ["fit", "--out", "{d}/o.zarr", "--device", "tpu"], "unknown device 'tpu'"),
+    *([("fit: absent CUDA", T, ["fit", "--out", "{d}/o.zarr", "--device", "cuda"], "CUDA is not available"),
+       ("fit: absent CUDA device index", T, ["fit", "--out", "{d}/o.zarr", "--device", "cuda:1"], "CUDA")]
+      if not torch.cuda.is_available() else
+      [("fit: more processes than GPUs", T, ["fit", "--out", "{d}/o.zarr", "--device", "cuda", "--nproc", "999"],
+        "needs 999 CUDA devices")]),
+    *([("fit: absent MPS", T, ["fit", "--out", "{d}/o.zarr", "--device", "mps"], "no Apple GPU")]
+      if not torch.backends.mps.is_available() else []),
+    ("fit: fp16 on the CPU", T, ["fit", "--out", "{d}/o.zarr", "--device", "cpu", "--precision", "fp16"],
+     "fp16 is refused on the CPU"),
+    ("fit: unknown device in params", T, ["fit", "--out", "{d}/o.zarr", "--set", "compute.device=tpu"],
+     "train.compute.device: unknown device 'tpu'"),
+    ("fit: unknown precision", T, ["fit", "--out", "{d}/o.zarr", "--precision", "fp8"],
+     "Invalid value for '--precision'"),
+    ("fit: unknown precision in params", T, ["fit", "--out", "{d}/o.zarr", "--set", "compute.precision=fp8"],
+     "train.compute.precision must be one of"),
+    ("fit: zero processes", T, ["fit", "--out", "{d}/o.zarr", "--nproc", "0"], "train.compute.nproc must be >= 1"),
+    ("fit: uneven global batch", T, ["fit", "--out", "{d}/o.zarr", "--device", "cpu", "--nproc", "2",
+                                     "--global-batch", "5"], "does not split over 2 processes"),
+    ("fit: data-parallel on a missing store", T, ["fit", "--out", "{d}/o.zarr", "--device", "cpu", "--nproc", "2",
+                                                  "--store", "{d}/nothing.zarr"], "does not exist"),
+    ("eval: unknown device", T, ["eval", "--checkpoint", "{d}/run", "--device", "gpu0", "--out", "{d}/o.zarr"],
+     "unknown device"),
+    ("predict: size off the stride", T, ["predict", "{d}/thin.png", "--checkpoint", "{d}/run", "--size", "100",
+                                         "--out", "{d}/o.zarr"], "not a positive multiple of the network's stride 8"),
+    ("predict: folder without photos", T, ["predict", "{d}/empty", "--checkpoint", "{d}/run", "--out", "{d}/o.zarr"],
+     "holds no PNG, JPEG or EXR photos"),
+    ("predict: unknown input space", T, ["predict", "{d}/thin.png", "--checkpoint", "{d}/run", "--input-space",
+                                         "gamma", "--out", "{d}/o.zarr"], "Invalid value"),
 ]
 
 

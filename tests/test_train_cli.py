@@ -58,7 +58,7 @@ def test_predict_png_and_exr(run_dir, tmp_path):
     write_exr(tmp_path / "photo.exr", img)
     for name in ("photo.png", "photo.exr"):
         out = tmp_path / (name + "_maps")
-        code, stdout, err = run("predict", tmp_path / name, "--checkpoint", run_dir, "--out", out)
+        code, stdout, err = run("predict", tmp_path / name, "--checkpoint", run_dir, "--out", out, "--size", 32)
         assert code == 0, err
         for m in ("normal", "diffuse", "roughness", "specular"):
             assert Image.open(out / f"{m}.png").size == (32, 32)

@@ -53,6 +53,8 @@ def ggx_cos(maps: torch.Tensor, wi: torch.Tensor, wo: torch.Tensor, dim: int = 1
     Returns:
         (..., 3, H, W) reflected radiance per unit irradiance at normal incidence, >= 0, finite.
     """
+    if maps.dtype in (torch.float16, torch.bfloat16):  # fp32 guard (train/device.py): a2 ~ 1e-8 at the floor
+        maps, wi, wo = maps.float(), wi.float(), wo.float()
     sl = lambda s: maps.narrow(dim, s.start, s.stop - s.start)  # noqa: E731
     n = sl(NORMAL)
     # Same floor on n_z as the Mitsuba plugin: a normal at/below the horizon becomes a grazing one.

@@ -3,6 +3,7 @@ user errors print one line through :func:`svcore.cli.run_cli`."""
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -28,15 +29,32 @@ def svtrain(verbose: bool) -> None:
 
 @config_command(Config, {"data.store": "--store", "optim.iterations": "--iterations",
                          "optim.batch_size": "--batch-size", "optim.seed": "--seed", "data.workers": "--workers",
-                         "optim.compile_loss": "--compile/--no-compile"})
+                         "optim.compile_loss": "--compile/--no-compile", "compute.device": "--device",
+                         "compute.precision": "--precision", "compute.nproc": "--nproc",
+                         "compute.global_batch": "--global-batch"})
 @click.option("--out", default=DEFAULT_RUN, show_default=True, help="Run directory.")
 @click.option("--no-resume", is_flag=True, help="Start over even if the run directory has a checkpoint.")
 def fit(cfg, out, no_resume):
     """Train the network (resumes from OUT/checkpoint.pt after an interruption)."""
+    from . import distributed
     from .fit import fit as run_fit
 
-    metrics = run_fit(cfg, out, resume=not no_resume)
-    click.echo(json.dumps(metrics))
+    if distributed.world_from_env().size == 1 and cfg.compute.nproc > 1:
+        distributed.launch_checked(cfg, out, resume=not no_resume)
+        click.echo(json.dumps(json.loads(Path(out, "metrics.json").read_text())))
+        return
+    try:
+        metrics = run_fit(cfg, out, resume=not no_resume)
+    except distributed.SvgenError as e:
+        if distributed.report_to_launcher(e):  # svtrain's launcher prints one line for the whole run
+            raise click.exceptions.Exit(e.exit_code)
+        raise
+    except KeyboardInterrupt:
+        if os.environ.get(distributed.ERROR_DIR_ENV):  # Ctrl-C reached every worker: the launcher reports it
+            raise click.exceptions.Exit(130)
+        raise
+    if distributed.world_from_env().main and not os.environ.get(distributed.ERROR_DIR_ENV):
+        click.echo(json.dumps(metrics))  # (under svtrain's own launcher, the launcher prints it)
 
 
 svtrain.add_command(fit)
@@ -48,26 +66,42 @@ svtrain.add_command(fit)
 @click.option("--store", default=None, help="Evaluate on this renders store instead of the training one.")
 @click.option("--limit", type=int, default=None, help="Evaluate at most this many samples.")
 @click.option("--out", default=None, help="Output directory (default: the run directory).")
-def eval_(ckpt, suite, store, limit, out):
+@click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
+def eval_(ckpt, suite, store, limit, out, device):
     """RMSE per map and of re-renderings, beside the baselines (eval.json, eval.md)."""
     from .evaluate import markdown, run_eval
 
     out = out or (ckpt if Path(ckpt).is_dir() else str(Path(ckpt).parent))
-    res = run_eval(ckpt, out, suite=suite, store=store, limit=limit)
+    res = run_eval(ckpt, out, suite=suite, store=store, limit=limit, device=device)
     click.echo(markdown(res), nl=False)
 
 
 @svtrain.command()
-@click.argument("photo", type=click.Path(dir_okay=False))
+@click.argument("photos", nargs=-1, required=True, type=click.Path())
 @click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True, help="Run directory or checkpoint file.")
-@click.option("--out", default=None, help="Output directory (default: <photo name>_maps beside the photo).")
-def predict(photo, ckpt, out):
-    """Estimate normal, diffuse, roughness and specular maps from one flash PHOTO (PNG/JPEG sRGB, EXR linear)."""
-    from .predict import predict as run_predict
+@click.option("--out", default=None, help="Output folder: the maps of a single photo, or one sub-folder per photo "
+              "(default: <photo name>_maps beside each photo, <folder>_maps for a folder).")
+@click.option("--size", type=int, default=256, show_default=True,
+              help="Prediction size: a multiple of the network's stride (2^levels); the paper captures at 256.")
+@click.option("--input-space", type=click.Choice(["auto", "srgb", "linear"]), default="auto", show_default=True,
+              help="auto: PNG/JPEG are sRGB, EXR linear. The 2018 paper's PNG data are linear: use linear for them.")
+@click.option("--batch", "batch_size", type=int, default=8, show_default=True, help="Photos per network call.")
+@click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
+def predict(photos, ckpt, out, size, input_space, batch_size, device):
+    """Estimate normal, diffuse, roughness and specular maps from flash PHOTOS (files or folders; PNG/JPEG/EXR)."""
+    from svcore.errors import SvgenError
 
-    out = out or str(Path(photo).with_name(Path(photo).stem + "_maps"))
-    for p in run_predict(photo, ckpt, out):
-        click.echo(str(p))
+    from .predict import predict_many
+
+    res = predict_many(list(photos), ckpt, out, size, input_space, batch_size, device)
+    for d in res.written:
+        click.echo(str(d))
+    if len(res.failed) == 1 and not res.written:
+        raise SvgenError(res.failed[0][1])
+    if res.failed:
+        listed = "; ".join(f"{p.name}: {why}" for p, why in res.failed)
+        raise SvgenError(f"{len(res.failed)} of {len(res.failed) + len(res.written)} photo(s) could not be read "
+                         f"({len(res.written)} written): {listed}")
 
 
 def main(argv=None) -> None:

@@ -6,10 +6,11 @@ params.yaml < ``key.sub=value`` overrides, and rejects unknown keys, wrong types
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any, ClassVar, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from svcore.config import ConfigModel, parse_sets, validate
 from svcore.config import resolve as resolve_config
@@ -104,6 +105,42 @@ class OptimConfig(ConfigModel):
     on disk by inductor; benchmarks/bench_train.py measures both); off in tests."""
 
 
+#: what ``compute.device`` may say (``train.device.resolve_device`` then checks the machine has it).
+DEVICE_SPEC = re.compile(r"(auto|cpu|cuda|mps)(?::(\d+))?")
+
+
+class ComputeConfig(ConfigModel):
+    """Where and how wide training runs (train/device.py, train/distributed.py; README "Training on GPUs")."""
+
+    device: str = "auto"
+    """auto (CUDA when available, else CPU), cpu, cuda, cuda:N or mps; under --nproc each process takes
+    cuda:LOCAL_RANK."""
+    precision: Literal["fp32", "bf16", "fp16"] = "fp32"
+    """fp32, bf16 or fp16 (autocast on the network; the loss renderer stays float32; fp16 is refused on the CPU)."""
+    nproc: int = Field(1, ge=1)
+    """data-parallel processes on this machine, launched by torch.distributed's elastic launcher (gloo on CPU,
+    NCCL on CUDA); under torchrun the launcher's world size is used instead."""
+    global_batch: int = Field(0, ge=0)
+    """samples per step over all processes; 0 = optim.batch_size x world size. optim.lr is used as given (no
+    automatic scaling): when the global batch grows k-fold, scale optim.lr yourself, by sqrt(k) for Adam."""
+
+    @field_validator("device")
+    @classmethod
+    def _device_spelling(cls, v: str) -> str:
+        # only the spelling here (configs are read on machines without the device); presence: train.device
+        m = DEVICE_SPEC.fullmatch(v.strip().lower())
+        if m is None or (m.group(2) is not None and m.group(1) != "cuda"):
+            raise ValueError(f"unknown device {v!r}; use one of auto, cpu, cuda, cuda:N, mps")
+        return v
+
+    @model_validator(mode="after")
+    def _even_split(self) -> "ComputeConfig":
+        if self.global_batch and self.global_batch % self.nproc:
+            raise ValueError(f"global_batch {self.global_batch} does not split over {self.nproc} processes; "
+                             f"use a multiple of {self.nproc}")
+        return self
+
+
 class Config(ConfigModel):
     """Everything ``svtrain fit`` needs (params.yaml section ``train``)."""
 
@@ -130,6 +167,8 @@ class Config(ConfigModel):
     """data source and augmentation."""
     optim: OptimConfig = Field(default_factory=OptimConfig)
     """optimiser and schedule."""
+    compute: ComputeConfig = Field(default_factory=ComputeConfig)
+    """device, precision, data-parallel width."""
 
     @model_validator(mode="after")
     def _consistent(self) -> "Config":

@@ -174,24 +174,47 @@ class PairDataset(Dataset):
 
 
 class StepSampler(Sampler):
-    """Batches of sample positions for steps ``start .. stop-1``: step t -> [t·B, ..., t·B + B - 1]."""
+    """Batches of sample positions for steps ``start .. stop-1``: step t -> [t·B, ..., t·B + B - 1].
 
-    def __init__(self, batch_size: int, start: int, stop: int):
+    Under data-parallel training the global batch of step t is those positions with B the global batch, and rank r
+    of a world of ``global_batch / batch_size`` processes takes the r-th contiguous ``batch_size`` of them: a pure
+    function of (seed, step, rank), so the ranks together see exactly the batch one process would.
+
+    Args:
+        batch_size: samples per step of this process.
+        start, stop: the steps.
+        global_batch: samples per step over all processes (None: ``batch_size``, a single process).
+        rank: this process's rank.
+    """
+
+    def __init__(self, batch_size: int, start: int, stop: int, global_batch: int | None = None, rank: int = 0):
         self.b, self.start, self.stop = int(batch_size), int(start), int(stop)
+        self.g = self.b if global_batch is None else int(global_batch)
+        self.offset = int(rank) * self.b
+        if self.offset + self.b > self.g:
+            raise ValueError(f"rank {rank} x batch {batch_size} does not fit in the global batch {self.g}")
 
     def __iter__(self) -> Iterator[list[int]]:
         for t in range(self.start, self.stop):
-            yield list(range(t * self.b, (t + 1) * self.b))
+            lo = t * self.g + self.offset
+            yield list(range(lo, lo + self.b))
 
     def __len__(self) -> int:
         return max(0, self.stop - self.start)
 
 
-def make_loader(ds: PairDataset, batch_size: int, start: int, stop: int, workers: int) -> DataLoader:
-    """A DataLoader yielding the batches of steps start..stop-1 (any worker count gives the same batches)."""
-    return DataLoader(ds, batch_sampler=StepSampler(batch_size, start, stop), num_workers=workers,
+def make_loader(ds: PairDataset, batch_size: int, start: int, stop: int, workers: int, global_batch: int | None = None,
+                rank: int = 0, pin_memory: bool = False, timeout: float = 0) -> DataLoader:
+    """A DataLoader yielding the batches of steps start..stop-1 (any worker count gives the same batches).
+
+    The loader always runs on the CPU (its workers are processes); ``pin_memory`` page-locks the batches so that
+    the copy to a CUDA device can be asynchronous. ``global_batch``/``rank``: see :class:`StepSampler`. ``timeout``:
+    seconds a worker may take per batch (0 = forever; ignored without workers, where nothing can hang apart).
+    """
+    return DataLoader(ds, batch_sampler=StepSampler(batch_size, start, stop, global_batch, rank), num_workers=workers,
                       persistent_workers=False, prefetch_factor=4 if workers else None,
-                      worker_init_fn=_one_thread if workers else None)
+                      worker_init_fn=_one_thread if workers else None, pin_memory=pin_memory,
+                      timeout=timeout if workers else 0)  # torch refuses a timeout without worker processes
 
 
 def _one_thread(_worker_id: int) -> None:

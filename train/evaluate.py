@@ -89,12 +89,12 @@ def metrics(pred: torch.Tensor, gt: torch.Tensor) -> dict[str, np.ndarray]:
         a, b = pred[:, sl], gt[:, sl]
         if name == "normal":
             a, b = (a + 1) * 0.5, (b + 1) * 0.5
-        out[name] = ((a - b) ** 2).mean((1, 2, 3)).sqrt().numpy()
+        out[name] = ((a - b) ** 2).mean((1, 2, 3)).sqrt().cpu().numpy()
     errs = []
     for light in EVAL_LIGHTS:
         lt = torch.tensor(light)
         errs.append(((flash_render(pred, lt) - flash_render(gt, lt)) ** 2).mean((1, 2, 3)))
-    out["rerender"] = torch.stack(errs).mean(0).sqrt().numpy()
+    out["rerender"] = torch.stack(errs).mean(0).sqrt().cpu().numpy()
     return out
 
 
@@ -153,7 +153,7 @@ def input_as_diffuse(image: torch.Tensor, means: torch.Tensor) -> torch.Tensor:
     """Baseline maps (B, 10, H, W) from images (B, 3, H, W)."""
     b, _, h, w = image.shape
     out = means[None, :, None, None].expand(b, 10, h, w).clone()
-    out[:, NORMAL] = torch.tensor([0.0, 0.0, 1.0])[None, :, None, None]
+    out[:, NORMAL] = torch.tensor([0.0, 0.0, 1.0], device=image.device)[None, :, None, None]
     out[:, DIFFUSE] = image.clamp(0, 1)
     return out
 
@@ -167,14 +167,19 @@ def dataset_mean(image: torch.Tensor, means: torch.Tensor) -> torch.Tensor:
 
 
 @torch.no_grad()
-def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: int = 8, seed: int = 0) -> dict:
-    """Mean RMSEs of the model and both baselines over ``indices`` (centre crops, no augmentation).
+def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: int = 8, seed: int = 0,
+             device: torch.device | str = "cpu") -> dict:
+    """Mean RMSEs of the model and both baselines over ``indices`` (centre crops, no augmentation), computed on
+    ``device`` (model, baselines and batches).
 
     Returns:
         {"model"|"input_as_diffuse"|"dataset_mean": {column: mean RMSE}, "samples": n,
         "paired": {baseline: {column: :func:`paired` statistics of model against that baseline}}}.
     """
     ds = PairDataset(src, indices, crop, seed, train=False)
+    device = torch.device(device)
+    means = means.to(device)
+    model = model.to(device) if model is not None else None
     methods = {"model": lambda img: model(img), "input_as_diffuse": lambda img: input_as_diffuse(img, means),
                "dataset_mean": lambda img: dataset_mean(img, means)}
     acc: dict[str, dict[str, list]] = {m: {c: [] for c in COLUMNS} for m in methods}
@@ -185,8 +190,8 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
         acc.pop("model")
     for lo in range(0, len(ds), batch_size):
         items = [ds[k] for k in range(lo, min(lo + batch_size, len(ds)))]
-        img = torch.stack([x[0] for x in items])
-        gt = torch.stack([x[1] for x in items])
+        img = torch.stack([x[0] for x in items]).to(device)
+        gt = torch.stack([x[1] for x in items]).to(device)
         for name, fn in methods.items():
             for c, v in metrics(fn(img), gt).items():
                 acc[name][c].extend(v.tolist())
@@ -230,15 +235,18 @@ def markdown(res: dict) -> str:
 
 
 def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "heldout",
-             store: str | None = None, limit: int | None = None) -> dict:
-    """Evaluate a checkpoint on a suite; writes eval.json, eval.md and eval.png (bars) into ``out_dir``.
+             store: str | None = None, limit: int | None = None, device: str = "cpu") -> dict:
+    """Evaluate a checkpoint on a suite on ``device`` (train/device.py strings); writes eval.json, eval.md and
+    eval.png (bars) into ``out_dir``.
 
     Returns:
         for one-group suites: {"model"|baseline: {column: RMSE}, "samples", "suite", "beats_baselines"};
         for several groups (stress): {"suite", "groups": {name: that dict}}.
     """
     from .checkpoint import load_model
+    from .device import resolve_device
 
+    dev = resolve_device(device)
     if suite not in SUITES:
         raise ConfigError(f"unknown eval suite {suite!r}; known: {', '.join(sorted(SUITES))}")
     model, cfg = load_model(checkpoint_path)
@@ -250,7 +258,7 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     for name, (src, idx) in groups.items():
         if limit:
             idx = idx[:limit]
-        r = evaluate(model, src, idx, cfg.data.crop, means, cfg.optim.batch_size, cfg.optim.seed)
+        r = evaluate(model, src, idx, cfg.data.crop, means, cfg.optim.batch_size, cfg.optim.seed, dev)
         r["beats_baselines"] = {c: all(r["model"][c] < r[b][c] for b in ("input_as_diffuse", "dataset_mean"))
                                 for c in COLUMNS}
         out_groups[name] = r

@@ -5,16 +5,22 @@ Resume equivalence: everything random is either a pure function of (seed, step) 
 dropout: torch's global RNG). So stopping at any checkpoint and resuming reproduces the
 uninterrupted run exactly on the same machine and thread count.
 
+Devices and precision come from ``cfg.compute`` (train/device.py); under a data-parallel launcher each process is
+one rank (train/distributed.py) and rank 0 alone writes. :class:`Trainer` is the loop itself: ``fit`` adds
+checkpoints, progress and outputs around it, and the benchmarks iterate the same object.
+
 Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (full state),
 ``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
 versions), ``metrics.json``, ``loss.csv``, ``loss.png``.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import time
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 import torch
@@ -29,7 +35,10 @@ from svcore.versions import library_versions
 from . import checkpoint
 from .config import Config, OptimConfig
 from .data import PairDataset, make_loader, open_source, split_by_source
-from .loss import make_loss
+from .device import Placement, placement
+from .distributed import (PeerLost, World, broadcast, check_world, gather, is_collective_failure,
+                          last_checkpoint_note, mean_over_ranks, pause_hook, process_group, world_from_env)
+from .loss import LossConfigs, make_loss, sample_configs
 from .net import SVBRDFNet, count_parameters
 
 log = get_logger(__name__)
@@ -68,31 +77,149 @@ def lr_at(o: OptimConfig, step: int) -> float:
     return o.lr * (o.lr_final + (1.0 - o.lr_final) * 0.5 * (1.0 + math.cos(math.pi * t)))
 
 
-def train_step(model: SVBRDFNet, opt: torch.optim.Optimizer, loss_fn, image: torch.Tensor, maps: torch.Tensor,
-               gen: torch.Generator, o: OptimConfig, step: int) -> tuple[float, float]:
+def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, image: torch.Tensor, maps: torch.Tensor,
+               gen: torch.Generator, o: OptimConfig, step: int, *, place: Placement | None = None,
+               scaler: torch.amp.GradScaler | None = None, configs: LossConfigs | None = None) -> tuple[float, float]:
     """One optimisation step of ``svtrain fit`` (benchmarks call this too, so they measure the same step).
 
     Args:
-        image: (B, 3, H, W) linear input photos. maps: (B, 10, H, W) packed target maps.
+        image: (B, 3, H, W) linear input photos. maps: (B, 10, H, W) packed target maps (both on the model's device).
         step: 0-based index of this step (sets the scheduled learning rate).
+        place: device and precision (None: float32, no autocast).
+        scaler: fp16's gradient scaler (None or disabled: plain backward and step).
+        configs: the loss configurations of these samples (None: drawn from ``gen`` for this batch).
 
     Returns:
-        (loss, gradient norm before clipping).
+        (loss, gradient norm before clipping) of this process's batch.
     """
     for group in opt.param_groups:
         group["lr"] = lr_at(o, step)
-    pred = model(image)
-    loss = loss_fn(pred, maps, gen)
+    with (place.autocast() if place is not None else contextlib.nullcontext()):
+        pred = model(image)
+    # Everything after the network is float32 (train/device.py lists the fp32 islands): the loss upcasts anyway,
+    # the map terms are taken on the same float32 prediction.
+    pred = pred.float()
+    loss = loss_fn(pred, maps, gen, configs)
     if o.map_l1 > 0:
         loss = loss + o.map_l1 * (pred - maps).abs().mean()
     if o.normal_l2 > 0:
         loss = loss + o.normal_l2 * ((pred[:, 0:2] - maps[:, 0:2]) ** 2).mean()
     opt.zero_grad(set_to_none=True)
-    loss.backward()
+    scaled = scaler is not None and scaler.is_enabled()
+    (scaler.scale(loss) if scaled else loss).backward()
+    if scaled:
+        scaler.unscale_(opt)  # clip and measure the true gradients
     # clip_grad_norm_ with max_norm=inf only measures the norm (same code path, no rescale)
     norm = torch.nn.utils.clip_grad_norm_(model.parameters(), o.grad_clip if o.grad_clip > 0 else math.inf)
-    opt.step()
+    if scaled:
+        scaler.step(opt)  # skips the step when fp16 gradients overflowed, and lowers the scale
+        scaler.update()
+    else:
+        opt.step()
     return float(loss.detach()), float(norm)
+
+
+class Trainer:
+    """One process's training: model on its device (DDP-wrapped under a data-parallel world), Adam, the loss
+    generator, the precision, and the batches of its rank. ``svtrain fit`` and the benchmarks run the same loop
+    (:meth:`run`), so a benchmark measures what ``fit`` does.
+
+    Args:
+        cfg: validated config.
+        place: device and precision (default: from ``cfg.compute``).
+        world: data-parallel world (default: a single process). The process group must already be joined.
+    """
+
+    def __init__(self, cfg: Config, place: Placement | None = None, world: World | None = None):
+        self.cfg, self.world = cfg, world or World()
+        self.place = place or placement(cfg.compute.device, cfg.compute.precision)
+        o = cfg.optim
+        net, self.opt, self.gen = build(cfg)
+        if self.world.rank:  # per-rank dropout masks (rank 0 keeps the single-process stream)
+            torch.manual_seed(stream_seed(o.seed, "train.rank_dropout", self.world.rank))
+        self.net = net.to(self.place.device)  # in place: the optimiser's parameters move with it
+        self.model: torch.nn.Module = self.net
+        if self.world.size > 1:
+            from torch.nn.parallel import DistributedDataParallel
+
+            dev = self.place.device
+            self.model = DistributedDataParallel(self.net, device_ids=[dev.index] if dev.type == "cuda" else None)
+        self.scaler = self.place.scaler()
+        self.loss_fn = make_loss(o.compile_loss)
+        self.global_batch, self.batch = self.world.batches(o.batch_size, cfg.compute.global_batch)
+
+    def loader(self, ds: PairDataset, start: int, stop: int, timeout: float = 0):
+        """This rank's batches of steps start..stop-1 (CPU workers, pinned when the device is a GPU)."""
+        o = self.cfg.optim
+        loader = make_loader(ds, self.batch, start, stop, self.cfg.data.workers, self.global_batch, self.world.rank,
+                             self.place.pin_memory, timeout)
+        # A dedicated loader generator: DataLoader otherwise draws its base seed from torch's global RNG, which
+        # would shift the dropout stream between an uninterrupted and a resumed run.
+        loader.generator = torch.Generator().manual_seed(stream_seed(o.seed, "train.loader"))
+        return loader
+
+    def step(self, image: torch.Tensor, maps: torch.Tensor, step: int) -> tuple[float, float]:
+        """One step on this rank's host batch; returns (loss of the global batch, gradient norm)."""
+        # all ranks draw the global batch's configurations (same generator state everywhere) and keep their rows
+        lo = self.world.rank * self.batch
+        configs = sample_configs(self.global_batch, self.gen).rows(lo, lo + self.batch)
+        loss, norm = train_step(self.model, self.opt, self.loss_fn, self.place.to(image), self.place.to(maps),
+                                self.gen, self.cfg.optim, step, place=self.place, scaler=self.scaler, configs=configs)
+        return mean_over_ranks(loss, self.world, self.place.device), norm
+
+    def run(self, ds: PairDataset, start: int, stop: int, timeout: float = 0) -> Iterator[tuple[int, float, float]]:
+        """Train steps start..stop-1 (``timeout``: seconds a loader worker may take per batch, 0 = forever).
+
+        Yields:
+            (steps done so far, loss of the global batch, gradient norm).
+        """
+        self.model.train()
+        if stop <= start:
+            return
+        step = start
+        for image, maps in self.loader(ds, start, stop, timeout):
+            pause_hook(self.world, step)
+            loss, norm = self.step(image, maps, step)
+            step += 1
+            yield step, loss, norm
+
+    def state(self, step: int, losses: list[float]) -> dict:
+        """Checkpoint state (a collective under a data-parallel world: every rank must call it)."""
+        rngs = gather({"cpu": torch.get_rng_state(), "cuda": torch.cuda.get_rng_state(self.place.device)
+                       if self.place.device.type == "cuda" else None}, self.world)
+        return {"config": self.cfg.to_dict(), "model": self.net.state_dict(), "optim": self.opt.state_dict(),
+                "loss_rng": self.gen.get_state(), "torch_rng": rngs[0]["cpu"], "rank_rngs": rngs,
+                "scaler": self.scaler.state_dict(), "step": step, "losses": losses, "world_size": self.world.size,
+                "global_batch": self.global_batch}
+
+    def load(self, state: dict, where: Path) -> None:
+        """Continue from a checkpoint state.
+
+        Raises:
+            ConfigError: another model config, or another global batch (the data order would differ).
+        """
+        if state["config"]["model"] != self.cfg.to_dict()["model"]:
+            raise ConfigError(f"{where} holds a run with a different model config; use a new --out or --no-resume")
+        g_old = int(state.get("global_batch", state["config"]["optim"]["batch_size"]))
+        n_old = int(state.get("world_size", 1))
+        if g_old != self.global_batch:
+            raise ConfigError(f"{where} was trained with a global batch of {g_old} ({n_old} process(es)); this run's "
+                              f"is {self.global_batch} ({self.world.size} x {self.batch}): pass --global-batch "
+                              f"{g_old} to continue it, or --no-resume")
+        self.net.load_state_dict(state["model"])
+        self.opt.load_state_dict(state["optim"])
+        self.gen.set_state(state["loss_rng"])
+        if "scaler" in state and state["scaler"]:
+            self.scaler.load_state_dict(state["scaler"])
+        rngs = state.get("rank_rngs") or [{"cpu": state["torch_rng"], "cuda": None}]
+        if len(rngs) == self.world.size:
+            torch.set_rng_state(rngs[self.world.rank]["cpu"])
+            if rngs[self.world.rank]["cuda"] is not None and self.place.device.type == "cuda":
+                torch.cuda.set_rng_state(rngs[self.world.rank]["cuda"], self.place.device)
+        elif self.world.main:
+            log.warning("%s was trained by %d process(es), this run has %d: batches, loss configurations and weights "
+                        "continue exactly, dropout masks come from fresh per-rank streams", where, n_old,
+                        self.world.size)
 
 
 def _write_outputs(out: Path, cfg: Config, losses: list[float], extra: dict) -> dict:
@@ -133,7 +260,8 @@ def _plot(path: Path, rows: list[tuple[int, float]]) -> None:
 
 def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop_after: int | None = None,
         show_progress: bool | None = None) -> dict:
-    """Train (or continue training) into ``out_dir``.
+    """Train (or continue training) into ``out_dir``, on ``cfg.compute``'s device and precision, as one rank of a
+    data-parallel run when a launcher started this process (train/distributed.py).
 
     Args:
         cfg: validated config.
@@ -145,74 +273,89 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
         show_progress: force the progress bar on/off.
 
     Returns:
-        the metrics dict (also in metrics.json).
+        the metrics dict (also in metrics.json; on ranks other than 0 nothing is written).
     """
     cfg.check()
     o = cfg.optim
+    world = world_from_env()
+    place = placement(cfg.compute.device, cfg.compute.precision, world.local_rank if world.size > 1 else None)
+    check_world(world.local_size, place.device)  # per machine: a cluster has more processes than one machine's GPUs
+    world.batches(o.batch_size, cfg.compute.global_batch)  # an uneven global batch fails before anything is written
     # open the data first: a bad store must fail before the run directory exists
     src = source if source is not None else open_source(cfg.data)
     train_idx, test_idx = split_by_source(src, cfg.data.holdout, o.seed)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    if world.main:
+        out.mkdir(parents=True, exist_ok=True)
     if o.threads:
         torch.set_num_threads(o.threads)
+    with process_group(world, place.device):
+        try:
+            return _fit(cfg, out, resume, src, train_idx, test_idx, stop_after, show_progress, world, place)
+        except Exception as e:
+            if world.size > 1 and not isinstance(e, SvgenError) and is_collective_failure(e):
+                raise PeerLost(f"lost contact with the other ranks ({str(e).splitlines()[0][:120]}); "
+                               f"{last_checkpoint_note(out)}") from None
+            raise
+
+
+def _fit(cfg: Config, out: Path, resume: bool, src, train_idx, test_idx, stop_after, show_progress, world: World,
+         place: Placement) -> dict:
+    o = cfg.optim
     ckpt_path = out / "checkpoint.pt"
-    model, opt, gen = build(cfg)
+    trainer = Trainer(cfg, place, world)
     start, losses = 0, []
-    if resume and ckpt_path.exists():
+    state = None
+    if resume and world.main and ckpt_path.exists():
         state = checkpoint.load(ckpt_path)
-        if state["config"]["model"] != cfg.to_dict()["model"]:
-            raise ConfigError(f"{out} holds a run with a different model config; use a new --out or --no-resume")
-        model.load_state_dict(state["model"])
-        opt.load_state_dict(state["optim"])
-        gen.set_state(state["loss_rng"])
-        torch.set_rng_state(state["torch_rng"])
+    state = broadcast(state, world)  # rank 0 reads, every rank continues from it (no shared file system needed)
+    if state is not None:
+        trainer.load(state, out)
         start, losses = int(state["step"]), list(state["losses"])
-        log.info("resuming %s at step %d", out, start)
-    (out / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
-    (out / "provenance.json").write_text(json.dumps(provenance(cfg, src), indent=2) + "\n")
+        if world.main:
+            log.info("resuming %s at step %d", out, start)
+    resumed_from = start if state is not None else None
+    if world.main:
+        (out / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
+        (out / "provenance.json").write_text(json.dumps(provenance(cfg, src), indent=2) + "\n")
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
-    loss_fn = make_loss(o.compile_loss)
 
     def save(step: int) -> None:
-        checkpoint.save(ckpt_path, {"config": cfg.to_dict(), "model": model.state_dict(), "optim": opt.state_dict(),
-                                    "loss_rng": gen.get_state(), "torch_rng": torch.get_rng_state(), "step": step,
-                                    "losses": losses})
+        st = trainer.state(step, losses)  # every rank (gathers the ranks' RNG states)
+        if world.main:
+            checkpoint.save(ckpt_path, st)
 
     step = start
     t0 = time.perf_counter()
-    bar = progress(total=o.iterations, desc="fit", unit="it", initial=start, disable=None if show_progress is None
-                   else not show_progress)
-    model.train()
+    bar = progress(total=o.iterations, desc="fit", unit="it", initial=start, disable=(not world.main) or (
+        None if show_progress is None else not show_progress))
     try:
-        if stop > start:
-            # A dedicated loader generator: DataLoader otherwise draws its base seed from torch's global
-            # RNG, which would shift the dropout stream between an uninterrupted and a resumed run.
-            loader = make_loader(ds, o.batch_size, start, stop, cfg.data.workers)
-            loader.generator = torch.Generator().manual_seed(stream_seed(o.seed, "train.loader"))
-            for image, maps in loader:
-                loss, _ = train_step(model, opt, loss_fn, image, maps, gen, o, step)
-                if not math.isfinite(loss):  # the weights are now non-finite too: keep the last good checkpoint
-                    raise SvgenError(f"the loss became {loss} at step {step}: lower optim.lr or set optim.grad_clip "
-                                     f"(the last checkpoint in {out} is from before it)")
-                losses.append(loss)
-                step += 1
-                bar.update(1)
-                bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}")
-                if step % o.checkpoint_every == 0 and step < stop:
-                    save(step)
+        for step, loss, _ in trainer.run(ds, start, stop):
+            if not math.isfinite(loss):  # the weights are now non-finite too: keep the last good checkpoint
+                raise SvgenError(f"the loss became {loss} at step {step - 1}: lower optim.lr or set optim.grad_clip "
+                                 f"(the last checkpoint in {out} is from before it)")
+            losses.append(loss)
+            bar.update(1)
+            bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}")
+            if step % o.checkpoint_every == 0 and step < stop:
+                save(step)
     except KeyboardInterrupt:
-        save(step)
         bar.close()
-        log.info("interrupted at step %d; checkpoint saved, rerun the same command to resume", step)
+        if world.size == 1:  # under a data-parallel run the peers may be gone: the last periodic checkpoint stands
+            save(step)
+            log.info("interrupted at step %d; checkpoint saved, rerun the same command to resume", step)
         raise
     bar.close()
     elapsed = time.perf_counter() - t0
     save(step)
-    checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": model.state_dict(), "step": step,
-                                       "provenance": provenance(cfg, src)})
     extra = {"it_per_s": (step - start) / elapsed if step > start and elapsed > 0 else None,
-             "parameters": count_parameters(model), "train_samples": int(len(train_idx)),
-             "test_samples": int(len(test_idx)), "done": step >= o.iterations}
+             "parameters": count_parameters(trainer.net), "train_samples": int(len(train_idx)),
+             "test_samples": int(len(test_idx)), "done": step >= o.iterations, "resumed_from": resumed_from,
+             "device": str(place.device), "precision": place.precision, "world_size": world.size,
+             "global_batch": trainer.global_batch}
+    if not world.main:
+        return {"step": step, **extra}
+    checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": trainer.net.state_dict(), "step": step,
+                                       "provenance": provenance(cfg, src)})
     return _write_outputs(out, cfg, losses, extra)

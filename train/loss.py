@@ -41,6 +41,10 @@ class LossConfigs:
     light: torch.Tensor
     view: torch.Tensor
 
+    def rows(self, lo: int, hi: int) -> "LossConfigs":
+        """The configurations of samples lo..hi-1 (a data-parallel rank's share of the global batch's draw)."""
+        return LossConfigs(self.light[lo:hi], self.view[lo:hi])
+
 
 def cosine_hemisphere(shape: tuple[int, ...], gen: torch.Generator | None = None,
                       r1_low: float = R1_LOW, r1_high: float = R1_HIGH) -> torch.Tensor:
@@ -123,9 +127,13 @@ def rendering_loss(pred: torch.Tensor, target: torch.Tensor, gen: torch.Generato
     """
     if cfg is None:
         cfg = sample_configs(pred.shape[0], gen)
-    with torch.no_grad():
-        r_gt = render(target, cfg)
-    return log_l1(render(pred, cfg), r_gt)
+    # fp32 island (train/device.py): the log of radiances near 0 and GGX at the roughness floor need float32, so
+    # a bf16/fp16 prediction from an autocast network is upcast and autocast is off for the renderings and the log.
+    with torch.autocast(pred.device.type, enabled=False):
+        pred, target = pred.float(), target.float()
+        with torch.no_grad():
+            r_gt = render(target, cfg)
+        return log_l1(render(pred, cfg), r_gt)
 
 
 def make_loss(compile: bool = False):
@@ -136,7 +144,8 @@ def make_loss(compile: bool = False):
     """
     render = torch.compile(render_configs, dynamic=False) if compile else render_configs
 
-    def loss(pred: torch.Tensor, target: torch.Tensor, gen: torch.Generator | None) -> torch.Tensor:
-        return rendering_loss(pred, target, gen, render=render)
+    def loss(pred: torch.Tensor, target: torch.Tensor, gen: torch.Generator | None,
+             cfg: LossConfigs | None = None) -> torch.Tensor:
+        return rendering_loss(pred, target, gen, cfg, render=render)
 
     return loss

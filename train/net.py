@@ -56,7 +56,8 @@ class GlobalConv(nn.Module):
 
     def forward(self, x: torch.Tensor, g: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(B, cin, H, W), (B, gdim) -> (B, cout, H', W'), (B, cout)."""
-        y = self.conv(x)
+        # float32 statistics under autocast (train/device.py): a half-precision variance loses or overflows
+        y = self.conv(x).float()
         mean = y.mean((2, 3))
         var = y.var((2, 3), unbiased=False)
         y = (y - mean[..., None, None]) * torch.rsqrt(var[..., None, None] + IN_EPS)
