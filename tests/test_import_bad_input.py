@@ -123,3 +123,19 @@ def test_import_bad_input(case, tmp_path):
     assert words in lines[0], err
     assert "Traceback" not in err
     assert not out.exists() and not (tmp_path / "out.zarr.partial").exists()
+
+
+def test_output_inside_a_source_is_refused(tmp_path):
+    """#15's rule for every stage: no command writes into its input (a source folder, or an imported store)."""
+    material(tmp_path / "src" / "m", s=64)
+    out = tmp_path / "src" / "out.zarr"
+    code, err = call(cli, "svgen", ["import", tmp_path / "src", out, "--size", 64, "--workers", 0])
+    assert code == 2 and "lies inside input" in err, err
+    assert not out.exists() and not (tmp_path / "src" / "out.zarr.partial").exists()
+    code, err = call(cli, "svgen", ["import", tmp_path / "src", tmp_path / "imp.zarr", "--size", 64, "--workers", 0])
+    assert code == 0, err
+    inner = tmp_path / "imp.zarr" / "v.zarr"
+    code, err = call(cli, "svgen", ["sample", inner, "--from", tmp_path / "imp.zarr", "--size", 64, "--only-from",
+                                    "--workers", 0])
+    assert code == 2 and "lies inside input" in err, err
+    assert not inner.exists()

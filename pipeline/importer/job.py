@@ -23,7 +23,7 @@ from svcore.errors import ConfigError
 
 from ..config import ImportConfig
 from ..runner import Stage
-from ..store import write_chunk
+from ..store import recorded_path, write_chunk
 from ..svbrdf_store import array_specs as svbrdf_array_specs
 from ..svbrdf_store import encode_maps
 from . import ImportInputError
@@ -162,7 +162,8 @@ def _gather_records(described: list[dict], n_chunks: int, out: list):
     def finish(partial: Path) -> dict:
         rdir = partial / RECORDS
         recs = [r for c in range(n_chunks) for r in json.loads((rdir / f"{c}.json").read_text())]
-        out.extend({**d, **r} for d, r in zip(described, recs))
+        # source folders recorded relative to the store's directory (the partial's is the final's), like every input
+        out.extend({**d, "source": recorded_path(d["source"], partial), **r} for d, r in zip(described, recs))
         shutil.rmtree(rdir)
         return {"materials": out}
 
@@ -180,21 +181,19 @@ def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
     sources = [Path(s) for s in cfg.sources]
     described = [describe(m, cfg, _root_of(m, sources)) for m in mats]
     names = [d["preset"] for d in described]
-    resolved = {**cfg.as_dict(), "sources": [str(Path(s).resolve()) for s in cfg.sources], "layout": layout}
-    # the materials found (and their files' sizes) are part of the config: resuming against changed sources is refused
-    config = {**resolved, "materials": [{k: d[k] for k in ("name", "source", "files", "bytes")} for d in described]}
-    attrs = {"presets": names, "param_names": {}, "categories": [],
-             "import": {"layout": layout, "sources": resolved["sources"],
-                        "seed": "crc32 of the material name (import is deterministic; the value only identifies it)"}}
+    # the materials found (names, files within their source folder, sizes) are the config's identity of the sources:
+    # resuming against changed sources is refused, any spelling or location of the same sources accepted (#15: input
+    # paths never enter the config hash)
+    config = {**{k: v for k, v in cfg.as_dict().items() if k != "sources"}, "layout": layout,
+              "materials": [{k: d[k] for k in ("name", "source_relative", "files", "bytes")} for d in described]}
+    fixed = {"presets": names, "param_names": {}, "categories": []}
     if cfg.as_kind == "renders":
         from ..render.scene import scene_constants
         from ..render.store import KIND, array_specs
 
         size = cfg.size
         arrays = array_specs(1, size, size)
-        attrs.update({"inputs": [{"path": resolved["sources"][0], "kind": "deschaintre-strips", "n": len(mats),
-                                  "config_hash": ""}],
-                      "scene": {**scene_constants(), "light_model": "unknown (photographs from the 2018 strips)",
+        fixed.update({"scene": {**scene_constants(), "light_model": "unknown (photographs from the 2018 strips)",
                                 "output": f"the strips' input tiles, read as {cfg.input_space}"},
                       "view_distribution": {"identity": "zoom 1, rotation 0, shift 0; light position unknown (0, 0)"},
                       "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)"})
@@ -203,10 +202,20 @@ def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
         arrays = svbrdf_array_specs("variants", cfg.size, 0)  # no params: imported materials have none
         arrays["seed"] = dataclasses.replace(arrays["seed"], encoding="crc32 of the material name")
         kind = "variants"
+
+    def attrs(out: Path) -> dict:  # the source folders relative to the output's directory (pipeline.store)
+        srcs = [recorded_path(s, out) for s in cfg.sources]
+        a = {**fixed, "import": {"layout": layout, "sources": srcs, "seed": "crc32 of the material name (import is "
+                                 "deterministic; the value only identifies it)"}}
+        if kind == "renders":
+            a["inputs"] = [{"path": srcs[0], "kind": "deschaintre-strips", "n": len(mats), "config_hash": ""}]
+        return a
+
     records: list = []
     n_chunks = -(-len(mats) // cfg.chunk)
     stage = Stage(kind, len(mats), cfg.chunk, arrays, config, attrs, _chunk_task, dict(mats=mats, cfg=cfg),
-                  desc="import", unit="material", finish=_gather_records(described, n_chunks, records))
+                  desc="import", unit="material", inputs=tuple(cfg.sources),
+                  finish=_gather_records(described, n_chunks, records))
     return stage, records
 
 
