@@ -7,7 +7,6 @@ files as a renders store of 2 * N SVBRDFs at chunk 2 with its 13 arrays.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import tempfile
 import time
@@ -16,6 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from pipeline import store as S
+
+from harness import RESULTS, parser, write_results
 
 ARRAYS = 13
 
@@ -39,7 +40,8 @@ def best(fn, repeat: int = 5) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
+    ap = parser(__doc__)
+    ap.set_defaults(note="2 shared CPU cores (5 helpers at once), warm page cache; best of 5 (verify: of 2)")
     ap.add_argument("--chunks", type=int, default=2000)
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
@@ -56,10 +58,8 @@ def main() -> None:
     res = {"chunks": args.chunks, "arrays": ARRAYS, "chunk_files": args.chunks * ARRAYS,
            "open_s_with_manifest_check": with_check, "open_s_without": without,
            "check_s_per_1000_files": (with_check - without) / (args.chunks * ARRAYS) * 1000,
-           "verify_store_s": verify,
-           "note": "2 shared CPU cores (5 helpers at once), warm page cache; best of 5 (verify: of 2)"}
-    out = Path(__file__).parent / "results" / "store_open.json"
-    out.write_text(json.dumps(res, indent=1) + "\n")
+           "verify_store_s": verify}
+    write_results(RESULTS / "store_open.json", res, note=args.note)
     print(json.dumps(res, indent=1))
 
 
