@@ -3,11 +3,10 @@
 A store of N chunks x A arrays of tiny samples (the cost is per chunk file, not per byte: one stat each), as many
 files as a renders store of 2 * N SVBRDFs at chunk 2 with its 13 arrays.
 
-    python benchmarks/bench_store_open.py [--chunks 2000] -> benchmarks/results/store_open.json
+    python3 benchmarks/bench_store_open.py [--chunks 2000] [--note TEXT] -> benchmarks/results/store_open.json
 """
 from __future__ import annotations
 
-import argparse
 import json
 import tempfile
 import time
@@ -15,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+import harness
 from pipeline import store as S
 
 ARRAYS = 13
@@ -30,6 +30,7 @@ def build(path: Path, chunks: int) -> None:
 
 
 def best(fn, repeat: int = 5) -> float:
+    """The fastest of ``repeat`` calls (the cost of the work itself, with the least interference)."""
     out = []
     for _ in range(repeat):
         t = time.perf_counter()
@@ -39,7 +40,7 @@ def best(fn, repeat: int = 5) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
+    ap = harness.parser(__doc__)
     ap.add_argument("--chunks", type=int, default=2000)
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
@@ -56,10 +57,8 @@ def main() -> None:
     res = {"chunks": args.chunks, "arrays": ARRAYS, "chunk_files": args.chunks * ARRAYS,
            "open_s_with_manifest_check": with_check, "open_s_without": without,
            "check_s_per_1000_files": (with_check - without) / (args.chunks * ARRAYS) * 1000,
-           "verify_store_s": verify,
-           "note": "2 shared CPU cores (5 helpers at once), warm page cache; best of 5 (verify: of 2)"}
-    out = Path(__file__).parent / "results" / "store_open.json"
-    out.write_text(json.dumps(res, indent=1) + "\n")
+           "verify_store_s": verify, "timing": "warm page cache; best of 5 (verify: of 2)"}
+    harness.write_results(harness.RESULTS / "store_open.json", res, note=args.note)
     print(json.dumps(res, indent=1))
 
 
