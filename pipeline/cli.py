@@ -18,6 +18,8 @@ COMMANDS: dict[str, str] = {
     "render": "pipeline.cmd_render:render",
     "export": "pipeline.cmd_export:export",
     "stress": "pipeline.cmd_stress:stress",
+    "import": "pipeline.cmd_import:import_",
+    "stats": "pipeline.cmd_stats:stats",
 }
 
 

@@ -10,11 +10,16 @@ from .config import SampleConfig
 
 
 @config_command(SampleConfig, {"per_preset": "--per-preset", "size": "--size", "seed": "--seed", "sigma": "--sigma",
-                               "presets": "--preset", "classes": "--class", "chunk": "--chunk"})
+                               "presets": "--preset", "classes": "--class", "chunk": "--chunk",
+                               "from_stores": "--from", "from_dir": "--from-dir", "per_material": "--per-material",
+                               "only_from": "--only-from/--with-presets"})
 @click.argument("out", type=click.Path(), required=False)
 @parallel_options
 def sample(out, cfg, workers, scheduler_address):
-    """Perturb every base material's parameters into a variants store at OUT."""
+    """Perturb every base material's parameters into a variants store at OUT.
+
+    With --from (or --from-dir), the materials of imported variants stores (`svgen import`) are perturbed too.
+    """
     from .sample import run_sample
 
     require(out=out)

@@ -44,6 +44,27 @@ class SampleConfig(StageConfig):
     """Only these material classes (empty: all)."""
     chunk: int = Field(8, ge=1)
     """Samples per zarr chunk (one dask task writes one chunk)."""
+    from_stores: tuple[str, ...] = Field((), **_LIST)
+    """Imported variants stores (`svgen import`) whose materials are perturbed too: per_material variants of
+    each, after the presets' variants (pipeline/sample_from.py)."""
+    from_dir: str | None = None
+    """A folder whose *.zarr stores join from_stores (sorted by name; a missing or empty folder adds none: the
+    DVC pipeline's data/imported)."""
+    per_material: int = Field(3, ge=1)
+    """Variants per imported material; variant k of material P uses derive_seed(seed, "sample", crc32(P), k)
+    and the generic table of pipeline/importer/perturb.py."""
+    only_from: bool = False
+    """With imported stores: write only the imported materials' variants, no presets'."""
+
+    #: the keys of imported materials; a store without imported stores records the config without them, so that
+    #: it is exactly what a plain `svgen sample` writes (the default DVC pipeline passes an empty --from-dir).
+    IMPORT_KEYS: ClassVar[tuple[str, ...]] = ("from_stores", "from_dir", "per_material", "only_from")
+
+    @model_validator(mode="after")
+    def _only_from_needs_stores(self) -> "SampleConfig":
+        if self.only_from and not self.from_stores and self.from_dir is None:
+            raise ValueError("only_from needs imported stores (from_stores or from_dir)")
+        return self
 
 
 class BlendConfig(StageConfig):
@@ -131,6 +152,51 @@ class RenderConfig(StageConfig):
         return self
 
 
+ImportLayout = Literal["auto", "folders", "deschaintre"]
+NormalConvention = Literal["auto", "opengl", "directx"]
+
+
+class ImportConfig(StageConfig):
+    """`svgen import`: material folders or 2018 strips -> a variants store (or a renders store)."""
+
+    SECTION: ClassVar[str] = "import"
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {"default": {}, "tiny": {"size": 64, "chunk": 2}}
+
+    sources: tuple[str, ...] = Field((), **_LIST)
+    """Source folders (a material folder, a tree of them, or a folder of 2018 strips); the command's SRC
+    arguments replace them. Empty by default, so the default pipeline imports nothing."""
+    layout: ImportLayout = "auto"
+    """folders (one material per folder of map files), deschaintre (5-tile PNG strips), or auto (strips when
+    every image is a PNG 5 times as wide as high, else folders)."""
+    size: int = Field(256, ge=16, le=4096)
+    """Output map side: sources are centre-cropped to a square and area-averaged down to it."""
+    normal_convention: NormalConvention = "auto"
+    """opengl (y up, DESIGN.md), directx (green flipped), or auto: the file name (NormalGL/NormalDX), else the
+    agreement with a height map's gradient, else OpenGL (recorded per material)."""
+    category: str = ""
+    """Category of materials whose sidecar metadata.json gives none (empty: "imported"); names become
+    "<category>/<material>"."""
+    allow_upscale: bool = False
+    """Permit maps smaller than size (periodic bilinear upsampling); otherwise such materials are refused."""
+    as_kind: Literal["variants", "renders"] = "variants"
+    """variants: the maps, which svgen render renders again; or renders (deschaintre layout only): the strip's own
+    photo as a one-view renders store with the identity view transform, for svtrain eval --store."""
+    input_space: Literal["linear", "srgb"] = "linear"
+    """Deschaintre layout: how the strip's input photo is encoded (linear: as the 2018 code read it; srgb)."""
+    height_strength: float = Field(0.02, gt=0, le=10)
+    """Relief of height value 1 in tile widths: height-derived normals are normalize(-s dh/du, -s dh/dv, 1)."""
+    chunk: int = Field(4, ge=1)
+    """Materials per zarr chunk (one dask task converts and writes one chunk)."""
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "ImportConfig":
+        if "/" in self.category:
+            raise ValueError(f"category {self.category!r} must not contain '/'")
+        if self.as_kind == "renders" and self.layout == "folders":
+            raise ValueError("--as renders needs the deschaintre layout (folders hold maps, not photographs)")
+        return self
+
+
 #: params.yaml section -> config class of every svgen stage.
 STAGE_CONFIGS: dict[str, type[StageConfig]] = {c.SECTION: c for c in (SampleConfig, BlendConfig, StressConfig,
-                                                                         RenderConfig)}
+                                                                         RenderConfig, ImportConfig)}

@@ -43,6 +43,8 @@ class Stage:
         desc, unit: progress label and unit ("variant", "view").
         units_per_sample: progress units per sample (render: views per SVBRDF).
         inputs: the stores this stage reads: an output inside one of them (or containing one) is refused.
+        finish: optional, called in this process once every chunk is written, with the ``.partial`` store's
+            path; returns attributes added at finalize (the import stage gathers its per-chunk records).
     """
 
     kind: str
@@ -57,6 +59,7 @@ class Stage:
     unit: str = "sample"
     units_per_sample: int = 1
     inputs: tuple[str, ...] = ()
+    finish: Callable[[Path], dict[str, Any]] | None = None
 
     def writer(self, out) -> StoreWriter:
         """The store writer of this stage at ``out`` (not entered yet).
@@ -80,4 +83,4 @@ class Stage:
             run_chunks(self.task_for(w), w.pending(), workers=workers, scheduler_address=scheduler_address,
                        desc=self.desc or self.kind, unit=self.unit, total_units=self.n * self.units_per_sample,
                        done_units=done * self.units_per_sample, task_bytes=w.task_bytes)
-            return str(w.finalize())
+            return str(w.finalize(self.finish(w.partial) if self.finish is not None else None))

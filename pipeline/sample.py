@@ -37,6 +37,10 @@ class VariantSpec:
     k: int
     seed: int
 
+    def make(self, sigma: float, size: int) -> tuple[materials.SVBRDF, dict[str, float]]:
+        """Maps and parameters of this variant (:func:`make_variant`)."""
+        return make_variant(self, sigma, size)
+
 
 def select_presets(cfg: SampleConfig) -> list[materials.Preset]:
     """The presets a config asks for (all by default), sorted by name. Unknown names raise UnknownMaterial."""
@@ -90,15 +94,19 @@ def make_variant(spec: VariantSpec, sigma: float, size: int) -> tuple[materials.
     return preset.generate(params, size, map_seed), params
 
 
-def _chunk_task(c: int, threads: int, *, partial: str, specs: list[VariantSpec], chunk: int, sigma: float, size: int,
+def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, sigma: float, size: int,
                 preset_index: dict[str, int], max_params: int) -> int:
-    """Worker: make the variants of chunk ``c`` and write them (one whole chunk)."""
+    """Worker: make the variants of chunk ``c`` and write them (one whole chunk).
+
+    ``specs`` are :class:`VariantSpec` or, with imported stores, :class:`pipeline.sample_from.ImportedSpec`:
+    each makes its own maps and parameters (``spec.make(sigma, size)``).
+    """
     start, stop = c * chunk, min(len(specs), (c + 1) * chunk)
     n = stop - start
     maps = {k: [] for k in materials.MAP_NAMES}
     params = np.full((n, max_params), np.nan, np.float32)
     for j, spec in enumerate(specs[start:stop]):
-        m, pv = make_variant(spec, sigma, size)
+        m, pv = spec.make(sigma, size)
         for k, v in encode_maps(m.validate()).items():
             maps[k].append(v)
         params[j, :len(pv)] = list(pv.values())
@@ -111,8 +119,19 @@ def _chunk_task(c: int, threads: int, *, partial: str, specs: list[VariantSpec],
 
 
 def sample_stage(cfg: SampleConfig) -> Stage:
-    """The variants stage of ``cfg`` (validates the selection; writes nothing)."""
+    """The variants stage of ``cfg`` (validates the selection; writes nothing).
+
+    With imported stores (``from_stores``/``from_dir``) their materials' variants join the presets'
+    (:func:`pipeline.sample_from.sample_from_stage`).
+    """
     materials.registry.check_size(cfg.size)
+    from .sample_from import imported_stores, sample_from_stage
+
+    stores = imported_stores(cfg)
+    if stores:
+        return sample_from_stage(cfg, stores)
+    if cfg.only_from:
+        raise ConfigError(f"only_from: no imported store in {cfg.from_dir} (and no from_stores)")
     chosen = select_presets(cfg)
     specs = plan(cfg)
     names = [p.name for p in chosen]
@@ -120,7 +139,8 @@ def sample_stage(cfg: SampleConfig) -> Stage:
     attrs = {"presets": names,
              "param_names": {p.name: p.exposed.names() for p in chosen},
              "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]"}
-    return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), cfg.as_dict(),
+    config = {k: v for k, v in cfg.as_dict().items() if k not in SampleConfig.IMPORT_KEYS}
+    return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config,
                  attrs, _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
                                           preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
                  desc="sample", unit="variant")

@@ -10,7 +10,7 @@ Layout (zarr v3 group, N samples of S x S maps, chunked along the sample axis):
 | roughness  | (N, S, S, 1)  | uint16 | perceptual roughness * 65535 (alpha = r^2)                        |
 | seed       | (N,)          | uint64 | the sample's derived seed                                         |
 | preset     | (N, 2)        | int32  | index into attrs["presets"]; blends: both parents'; variants: -1 2nd |
-| params     | (N, P)        | float32| variants: exposed parameters in the preset's table order, NaN-padded |
+| params     | (N, P)        | float32| variants: exposed parameters in the preset's table order, NaN-padded (none in an imported store) |
 | parents    | (N, 2)        | int64  | blends only: variant indices in the source store                  |
 | alpha      | (N,)          | float32| blends only: mean weight of the first parent                      |
 | category   | (N,)          | int16  | stress only: index into attrs["categories"]                       |
@@ -48,7 +48,8 @@ def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpe
     Args:
         kind: "variants", "blends" or "stress".
         size: map resolution.
-        max_params: variants only: columns of ``params`` (the largest exposed-parameter count of its presets).
+        max_params: variants only: columns of ``params`` (the largest exposed-parameter count of its presets);
+            0: no ``params`` array (an imported store, `svgen import`: its materials have no parameters).
     """
     seed = {"variants": "derived variant seed", "blends": "derived blend seed", "stress": "derived sample seed"}
     per_kind = {
@@ -66,6 +67,8 @@ def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpe
     }
     if kind not in per_kind:
         raise ValueError(f"unknown SVBRDF store kind {kind!r}; known: {', '.join(per_kind)}")
+    if kind == "variants" and max_params == 0:
+        del per_kind["variants"]["params"]
     return {**map_specs(size), **per_kind[kind]}
 
 

@@ -42,6 +42,21 @@ def write_png(path: str | Path, img: np.ndarray) -> Path:
     return path
 
 
+def write_png16(path: str | Path, img: np.ndarray) -> Path:
+    """Write (H, W, C) or (H, W) values in [0, 1] as a 16-bit PNG (grey, grey+alpha, RGB or RGBA; values written
+    as given, no encoding). pypng, since Pillow cannot write 16-bit colour PNGs."""
+    import png
+
+    path = Path(path)
+    a = np.round(np.clip(np.asarray(img, np.float64), 0, 1) * 65535).astype(np.uint16)
+    if a.ndim == 2:
+        a = a[..., None]
+    h, w, c = a.shape
+    with open(path, "wb") as f:
+        png.Writer(w, h, greyscale=c in (1, 2), alpha=c in (2, 4), bitdepth=16).write(f, a.reshape(h, w * c).tolist())
+    return path
+
+
 def read_ldr(path: str | Path) -> np.ndarray:
     """Read a PNG/JPEG as (H, W, 3) float32 in [0, 1], still encoded as stored (no transfer function applied).
 

@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from pipeline.cli import cli
-from pipeline.config import STAGE_CONFIGS, BlendConfig, LightModel, RenderConfig, Sampler, SampleConfig
+from pipeline.config import STAGE_CONFIGS, BlendConfig, ImportConfig, LightModel, RenderConfig, Sampler, SampleConfig
 from svcore.cli import run_cli, version
 from svcore.config import keys, parse_sets, read_yaml, validate
 from svcore.errors import ConfigError
@@ -23,7 +23,7 @@ from train.config import Config
 #: (command group, program, argv prefix, config class) of every configured command.
 COMMANDS = [(cli, "svgen", ["sample"], SampleConfig), (cli, "svgen", ["blend"], BlendConfig),
             (cli, "svgen", ["render"], RenderConfig), (cli, "svgen", ["stress"], STAGE_CONFIGS["stress"]),
-            (svtrain, "svtrain", ["fit"], Config)]
+            (cli, "svgen", ["import"], ImportConfig), (svtrain, "svtrain", ["fit"], Config)]
 
 
 def call(group, prog, args) -> tuple[int, str, str]:
@@ -48,8 +48,8 @@ def test_every_config_key_is_listed_in_help_with_its_documentation(group, prog, 
 @pytest.mark.parametrize("group, prog, cmd, cls", COMMANDS, ids=[" ".join(c[2]) for c in COMMANDS])
 def test_print_config_round_trips_through_a_params_file(group, prog, cmd, cls, tmp_path):
     preset = [p for p in cls.PRESETS if p != cls.DEFAULT_PRESET][0]
-    code, printed, err = call(group, prog, [*cmd, "--config-preset", preset, "--set", "seed=7" if "seed" in
-                                            cls.model_fields else "optim.seed=7", "--print-config"])
+    one = "seed=7" if "seed" in cls.model_fields else "optim.seed=7" if "optim" in cls.model_fields else "chunk=7"
+    code, printed, err = call(group, prog, [*cmd, "--config-preset", preset, "--set", one, "--print-config"])
     assert code == 0, err
     (tmp_path / "p.yaml").write_text(printed)
     code, again, err = call(group, prog, [*cmd, "--params", tmp_path / "p.yaml", "--print-config"])

@@ -27,6 +27,7 @@ TINY = {
               "optim": {"iterations": 4, "batch_size": 2, "checkpoint_every": 2, "compile_loss": False}},
     "eval": {"limit": 8},
     "stress": {"per_category": 1, "size": 64, "seed": 0},
+    "import": {"sources": []},
 }
 ENV = {**os.environ, "SVGEN_NO_PROGRESS": "1", "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t",
        "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}

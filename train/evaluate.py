@@ -64,8 +64,17 @@ def _stress(cfg: Config, store: str | None):
     return {c: (src, np.array([i for i, x in enumerate(cats) if x == c], np.int64)) for c in names}
 
 
+def _all(cfg: Config, store: str | None):
+    # every view of an external test set, e.g. the 2018 strips imported with `svgen import --as renders`
+    if not store:
+        raise ConfigError("--suite all needs --store: a renders store to evaluate in full")
+    src = open_source(cfg.data.model_copy(update={"store": store}))
+    return {"all": (src, np.arange(len(src), dtype=np.int64))}
+
+
 register_suite("heldout", _heldout)
 register_suite("stress", _stress)
+register_suite("all", _all)
 
 
 def metrics(pred: torch.Tensor, gt: torch.Tensor) -> dict[str, np.ndarray]:

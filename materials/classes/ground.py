@@ -54,7 +54,8 @@ def ground(p: dict, size: int, rng: np.random.Generator):
     wm = smoothstep(0.0, 0.5, wet + 1.2 * p["moisture"] - 1.0) * min(1.0, 20 * p["moisture"])
     col = col * (1 - 0.45 * wm)[..., None]
     r = p["roughness"] - 0.45 * wm - 0.2 * pebm + 0.05 * b2
-    return finish(h, 1.0, col, 0.03 + 0.01 * wm[..., None], np.clip(r, 0.1, 1))
+    spec = np.clip(0.025 + 0.04 * wm + 0.006 * b2, 0.01, 0.1)  # wet patches shine (was 0.03 + 0.01 wm)
+    return finish(h, 1.0, col, spec[..., None], np.clip(r, 0.1, 1))
 
 
 register_preset("ground/dry_soil", "ground", {

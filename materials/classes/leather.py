@@ -21,7 +21,7 @@ PARAMS = [
     P("roughness", 0.55, 0.2, 0.9, "mean roughness"),
     P("rough_var", 0.15, 0.0, 0.4, "roughness difference crease vs top"),
     P("wear", 0.2, 0.0, 1.0, "lighter, smoother worn peaks"),
-    P("specular", 0.04, 0.02, 0.07, "F0"),
+    P("specular", 0.04, 0.02, 0.10, "F0 (mean; lower in creases, higher on worn tops)"),
     P("crease_dark", 0.4, 0.0, 0.9, "darkening inside creases"),
 ]
 
@@ -45,7 +45,8 @@ def leather(p: dict, size: int, rng: np.random.Generator):
     col = lerp(col, np.minimum(1, base * 1.8 + 0.03), top * 0.6)
     col = col * (1 - 0.3 * p["pores"] * porem)[..., None]  # pores trap dirt and shadow
     r = p["roughness"] + p["rough_var"] * (crease - 0.3) - 0.25 * top + 0.1 * p["pores"] * porem
-    return finish(h, 1.0, col, p["specular"], np.clip(r, 0.05, 1))
+    spec = p["specular"] * np.clip(1 + 0.3 * blot, 0.4, 1.8) * (1 - 0.4 * crease) * (1 + 0.6 * top)
+    return finish(h, 1.0, col, spec[..., None], np.clip(r, 0.05, 1))
 
 
 register_preset("leather/brown_pebbled", "leather", {
@@ -65,7 +66,7 @@ register_preset("leather/croc_green", "leather", {
     **rgb("color", (0.15, 0.25, 0.12), (-0.1, 0.15)),
     "cells": (14, 8, 24), "cell_depth": (0.7, 0.4, 1.0), "cell_jitter": (0.5, 0.2, 0.8),
     "crease_dark": (0.6, 0.3, 0.9), "roughness": (0.4, 0.25, 0.6), "rough_var": (0.2, 0.0, 0.4),
-    "specular": (0.05, 0.03, 0.07)})
+    "specular": (0.05, 0.03, 0.09)})
 register_preset("leather/suede_red", "leather", {
     **rgb("color", (0.45, 0.08, 0.06), (-0.15, 0.15)),
     "roughness": (0.85, 0.7, 0.9), "pores": (0.6, 0.2, 1.0), "wrinkles": (0.5, 0.2, 0.9),

@@ -13,7 +13,7 @@ PARAMS = [
     *rgb_params("substrate", (0.55, 0.55, 0.55), "colour under chipped paint"),
     P("roughness", 0.25, 0.02, 0.9, "mean roughness of the coat"),
     P("rough_var", 0.1, 0.0, 0.5, "roughness variation (smudges)"),
-    P("specular", 0.04, 0.02, 0.08, "F0 of the coat"),
+    P("specular", 0.04, 0.02, 0.12, "F0 of the coat"),
     P("orange_peel", 0.3, 0.0, 1.0, "fine bumpiness of sprayed paint"),
     P("peel_scale", 0.03, 0.01, 0.1, "orange-peel feature size (texture widths)"),
     P("brush", 0.0, 0.0, 1.0, "depth of brush strokes"),
@@ -70,7 +70,7 @@ register_preset("paint/brushed_white", "paint", {
 register_preset("paint/metallic_car", "paint", {
     **rgb("color", (0.1, 0.35, 0.2), (-0.1, 0.3)),
     "flakes": (0.6, 0.2, 1.0), "roughness": (0.15, 0.05, 0.3), "orange_peel": (0.3, 0.0, 0.8),
-    "specular": (0.05, 0.03, 0.08)})
+    "specular": (0.05, 0.03, 0.11)})
 register_preset("paint/matte_wall", "paint", {
     **rgb("color", (0.8, 0.75, 0.6), (-0.3, 0.15)),
     "roughness": (0.75, 0.5, 0.9), "orange_peel": (0.8, 0.3, 1.0), "peel_scale": (0.02, 0.01, 0.05),

@@ -12,7 +12,7 @@ from ..registry import register_class, register_preset
 PARAMS = [
     *rgb_params("color", (0.2, 0.4, 0.8), "plastic colour"),
     P("roughness", 0.3, 0.02, 0.9, "mean roughness"),
-    P("specular", 0.04, 0.03, 0.06, "F0"),
+    P("specular", 0.04, 0.02, 0.10, "F0 (mean; varies with the colour unevenness and scratches)"),
     P("grain", 0.3, 0.0, 1.0, "depth of the moulded stipple texture"),
     P("grain_scale", 0.02, 0.005, 0.08, "stipple size (texture widths)"),
     P("grain_rough", 0.1, 0.0, 0.4, "extra roughness on stipple peaks"),
@@ -40,7 +40,10 @@ def plastic(p: dict, size: int, rng: np.random.Generator):
     diff = lerp(col, np.minimum(1, col + 0.25), sd * 0.7)
     r = p["roughness"] + p["grain_rough"] * np.clip(g, 0, None) * 0.5 - 0.25 * p["smudge"] * np.clip(sm, 0, None)
     r = r + 0.35 * sd
-    return finish(h, 1.0, diff, p["specular"], np.clip(r, 0.02, 1))
+    # F0 varies with the moulding's unevenness and is raised in scratches (svgen stats: uniform F0 was narrower
+    # than artist materials' -- docs/IMPORT.md "Widened presets")
+    spec = p["specular"] * np.clip(1 + 0.35 * unev, 0.4, 1.8) * (1 + 0.5 * sd)
+    return finish(h, 1.0, diff, spec[..., None], np.clip(r, 0.02, 1))
 
 
 register_preset("plastic/glossy_blue", "plastic", {
@@ -63,4 +66,4 @@ register_preset("plastic/scratched_red", "plastic", {
     **rgb("color", (0.7, 0.08, 0.06), (-0.2, 0.15)),
     "scratch_count": (180, 80, 300), "scratch_depth": (0.6, 0.3, 1.0), "scratch_angle": (0.3, 0.0, 1.57),
     "roughness": (0.25, 0.1, 0.5), "grain": (0.2, 0.0, 0.6), "color_var": (0.08, 0.0, 0.3),
-    "specular": (0.04, 0.03, 0.06)})
+    "specular": (0.045, 0.025, 0.09)})

@@ -62,7 +62,9 @@ def stone(p: dict, size: int, rng: np.random.Generator):
     flat = 1 - 0.8 * p["polish"]
     h = flat * (0.003 * p["bump"] * p["bump_scale"] * 10 * b1 + 0.002 * p["layers"] * lay) + dome - 0.004 * joint_m
     r = p["roughness"] * (1 - 0.85 * p["polish"]) + 0.08 * b2 + 0.2 * joint_m
-    return finish(h, 1.0, col, 0.04, np.clip(r, 0.03, 1))
+    # F0: higher where polished, lower in the joints, mottled with the colour noise (was a constant 0.04)
+    spec = 0.04 * (1 + 0.6 * p["polish"]) * np.clip(1 + 0.25 * b2, 0.5, 1.5) * (1 - 0.4 * joint_m)
+    return finish(h, 1.0, col, spec[..., None], np.clip(r, 0.03, 1))
 
 
 register_preset("stone/white_marble", "stone", {

@@ -62,8 +62,8 @@ def wood(p: dict, size: int, rng: np.random.Generator):
     v = p["varnish"]
     r = lerp((p["roughness"] + 0.1 * late)[..., None], np.full(1, 0.08, F32), np.full(fx.shape, v, F32))[..., 0]
     r = r + 0.15 * (1 - v) * porem
-    spec = 0.04 + 0.02 * v
-    return finish(h * (1 - 0.6 * v), 1.0, col, spec, np.clip(r, 0.03, 1))
+    spec = (0.035 + 0.035 * v) * (1 - 0.4 * np.clip(porem, 0, 1)) * np.clip(1 + 0.15 * fib, 0.6, 1.4)
+    return finish(h * (1 - 0.6 * v), 1.0, col, spec[..., None], np.clip(r, 0.03, 1))
 
 
 register_preset("wood/oak_planks", "wood", {
