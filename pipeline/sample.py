@@ -148,9 +148,15 @@ def sample_stage(cfg: SampleConfig) -> Stage:
 
 def run_sample(out, cfg: SampleConfig, workers: int = 2, scheduler_address: str | None = None) -> str:
     """Write the variants store of ``cfg`` to ``out`` (resuming an interrupted run). Returns the path."""
-    # before planning: an astronomically large per_preset is refused in one line, not listed for hours
+    # before planning: an astronomically large per_preset (or per_material) is refused in one line, not listed
+    # for hours. Counted without the plan: presets x per_preset + imported materials x per_material.
+    from .sample_from import imported_stores
+    from .svbrdf_store import SVBRDFStore
+
     materials.registry.check_size(cfg.size)
-    chosen = select_presets(cfg)
-    check_store_size(out, len(chosen) * cfg.per_preset, cfg.chunk,
-                     array_specs("variants", cfg.size, max(len(p.exposed) for p in chosen)))
+    stores = imported_stores(cfg)
+    chosen = [] if cfg.only_from else select_presets(cfg)
+    n = len(chosen) * cfg.per_preset + sum(len(SVBRDFStore(s, "variants")) for s in stores) * cfg.per_material
+    if n:  # none: sample_stage says why
+        check_store_size(out, n, cfg.chunk, array_specs("variants", cfg.size, 0))  # without params: a lower bound
     return sample_stage(cfg).run(out, workers, scheduler_address)

@@ -19,6 +19,7 @@ from svcore.seeds import derive_seed
 
 from .config import SampleConfig
 from .runner import Stage
+from .store import recorded_path
 from .sample import _chunk_task, perturb, plan, select_presets
 from .svbrdf_store import SVBRDFStore, array_specs
 
@@ -92,17 +93,22 @@ def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
         raise ConfigError("an imported material has the name of a preset or of another imported material")
     specs += imported
     max_params = max([len(p.exposed) for p in chosen] + [len(TABLE)])
-    attrs = {"presets": names,
-             "param_names": {**{p.name: p.exposed.names() for p in chosen},
-                             **{s.preset: TABLE.names() for s in imported}},
-             "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]",
-             "imported": {"stores": [str(s) for s in stores], "per_material": cfg.per_material,
-                          "table": {p.name: [p.default, p.low, p.high, p.doc] for p in TABLE}},
-             "materials": records}
-    # the imported stores' identities are part of the config: resuming against a re-imported store is refused
-    ids = [{"path": str(s), "config_hash": SVBRDFStore(s, "variants").attrs["svgen"]["config_hash"]} for s in stores]
+    param_names = {**{p.name: p.exposed.names() for p in chosen}, **{s.preset: TABLE.names() for s in imported}}
+
+    def attrs(out):  # the imported stores' paths relative to the output: the same strings for any spelling
+        return {"presets": names, "param_names": param_names,
+                "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]",
+                "imported": {"stores": [recorded_path(s, out) for s in stores], "per_material": cfg.per_material,
+                             "table": {p.name: [p.default, p.low, p.high, p.doc] for p in TABLE}},
+                "materials": records}
+
+    # the imported stores' identities (config hash and size, not how their paths are spelled) are part of the
+    # config: resuming against a re-imported store is refused, with any spelling of the same stores accepted
+    ids = [{"config_hash": st.attrs["svgen"]["config_hash"], "n": len(st)}
+           for st in (SVBRDFStore(s, "variants") for s in stores)]
+    config = {**{k: v for k, v in cfg.as_dict().items() if k not in ("from_stores", "from_dir")}, "from": ids}
     return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params),
-                 {**cfg.as_dict(), "from": ids}, attrs, _chunk_task,
+                 config, attrs, _chunk_task,
                  dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
                       preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
-                 desc="sample", unit="variant")
+                 desc="sample", unit="variant", inputs=tuple(str(s) for s in stores))

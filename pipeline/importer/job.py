@@ -206,7 +206,8 @@ def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
     records: list = []
     n_chunks = -(-len(mats) // cfg.chunk)
     stage = Stage(kind, len(mats), cfg.chunk, arrays, config, attrs, _chunk_task, dict(mats=mats, cfg=cfg),
-                  desc="import", unit="material", finish=_gather_records(described, n_chunks, records))
+                  desc="import", unit="material", finish=_gather_records(described, n_chunks, records),
+                  inputs=tuple(str(x) for x in cfg.sources))  # an output inside a source folder is refused
     return stage, records
 
 
