@@ -88,6 +88,13 @@ def config_hash(config: dict) -> str:
     return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
+def _store_versions() -> dict[str, str]:
+    """The libraries' versions a store records. Without ``svgen_source`` (the git describe of the imported tree):
+    it names the checkout, not the code's behaviour, and would make a store's zarr.json differ between a clean run
+    and a resumed one, or between two copies of one commit (tests/test_dvc_pipeline.py compares whole trees)."""
+    return {k: v for k, v in library_versions().items() if k != "svgen_source"}
+
+
 def partial_path(path: str | os.PathLike) -> Path:
     p = Path(path)
     return p.with_name(p.name + PARTIAL_SUFFIX)
@@ -236,7 +243,7 @@ class StoreWriter:
                 "n": self.n, "chunk": self.chunk,
                 "arrays": {k: {"shape": list(v.shape), "dtype": v.dtype, "encoding": v.encoding, "space": v.space}
                            for k, v in self.arrays.items()},
-                "versions": library_versions(),
+                "versions": _store_versions(),
             },
             "config": self.config,
             **self.attrs,

@@ -156,6 +156,8 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
     ("output inside the input", S, ["render", "{d}/v.zarr", "{d}/v.zarr/out.zarr", "--config-preset", "tiny"],
      "lies inside input"),
     ("blend output inside the input", S, ["blend", "{d}/v.zarr", "{d}/v.zarr/b.zarr"], "lies inside input"),
+    ("sample --from: output inside the imported store", S,
+     ["sample", "{d}/v.zarr/s.zarr", "--from", "{d}/v.zarr", "--only-from", "--size", "64"], "lies inside input"),
     ("export into the store", S, ["export", "{d}/r.zarr", "{d}/r.zarr/png"], "lies inside input"),
     ("fit: batch larger than the data", T, ["fit", "--out", "{d}/o.zarr", *SMALL, "--batch-size", "1000"],
      "larger than the 4 training samples"),
