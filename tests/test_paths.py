@@ -14,10 +14,10 @@ from pipeline.store import partial_path
 from test_bad_input import call
 from train.cli import svtrain
 
+from test_store_integrity import SMALL_FIT  # noqa: E402
+
 RENDER = ["--config-preset", "tiny", "--views", "1", "--res", "16", "--chunk", "1", "--workers", "0"]
-FIT = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
-       "--set", "data.crop=16", "--set", "data.holdout=0.5", "--set", "optim.batch_size=1",
-       "--workers", "0", "--no-compile", "--iterations", "1"]
+FIT = SMALL_FIT  # the same tiny fit as the integrity tests
 
 
 @pytest.fixture(scope="module")

@@ -2,30 +2,21 @@
 broken photos listed after the valid ones are written) and the input space of PNGs that hold linear values."""
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 
 import numpy as np
 import pytest
 from PIL import Image
 
-from svcore.cli import run_cli
 from svcore.image_io import read_exr, srgb_decode, srgb_encode, write_exr
-from train.cli import svtrain
 
 SMALL = ["--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
          "--set", "data.crop=32", "--set", "data.synthetic_size=40", "--set", "data.synthetic_samples=16",
          "--set", "data.synthetic_materials=4", "--set", "data.holdout=0.5", "--set", "optim.batch_size=2",
          "--workers", "0", "--no-compile"]
+from test_train_cli import run  # noqa: E402  (one svtrain-in-process helper)
+
 MAPS = ("normal", "diffuse", "roughness", "specular")
-
-
-def run(*args):
-    err, out = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
-        code = run_cli(svtrain, "svtrain", [str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")
