@@ -21,6 +21,15 @@ Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/res
     python3 benchmarks/bench_train_budget.py --table-width 8          # widths 8/16/32 x 10 min (train_budget.json)
     python3 benchmarks/bench_train_budget.py --widths 8 --budget-s 1800 --out benchmarks/results/budget_30min --png ''
     python3 benchmarks/bench_train_budget.py --widths 8 --steps 2707 --set optim.map_l1=0.1 --out /tmp/p --png ''  # A/B
+
+On a shared machine, calibrate on a quiet moment and train later: ``--calibrate-only F`` writes each width's
+quiet it/s and step count to F (a few minutes); ``--steps-from F`` then trains exactly those steps whatever the
+load, and every point also records ``budget_s`` (steps / quiet it/s, the training time the same steps take on
+the quiet machine), which the chart uses as its x axis. Training is deterministic, so the errors are the ones a
+quiet run would give; only the recorded wall times are stretched by the load.
+
+    python3 benchmarks/bench_train_budget.py --calibrate-only benchmarks/results/train_budget_calibration.json
+    python3 benchmarks/bench_train_budget.py --steps-from benchmarks/results/train_budget_calibration.json --table-width 8
 """
 from __future__ import annotations
 
@@ -187,7 +196,11 @@ def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, me
     ds = PairDataset(src, train_idx, cfg.data.crop, cfg.optim.seed, train=True, flips=cfg.data.augment)
     # one-off setup outside the clock: the loss compile (inside the first probe step) and the step count
     t0 = time.perf_counter()
-    iterations, probe_rate = (a.steps, None) if a.steps else calibrate_steps(cfg, ds, a.budget_s)
+    quiet = a.calibration.get(str(base)) if a.calibration else None
+    if quiet:
+        iterations, probe_rate = int(quiet["steps"]), float(quiet["it_per_s"])
+    else:
+        iterations, probe_rate = (a.steps, None) if a.steps else calibrate_steps(cfg, ds, a.budget_s)
     setup_s = time.perf_counter() - t0
     cfg.optim.iterations = iterations
     o = cfg.optim
@@ -207,7 +220,9 @@ def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, me
         dt, dc = time.perf_counter() - e0, time.process_time() - c0
         eval_wall += dt
         eval_cpu += dc
-        pt = {"wall_s": round(train_wall, 1), "cpu_s": round(cpu_seconds(proc) - cpu0 - eval_cpu, 1), "steps": step,
+        pt = {"wall_s": round(train_wall, 1),
+              "budget_s": round(step / probe_rate, 1) if probe_rate else round(train_wall, 1),
+              "cpu_s": round(cpu_seconds(proc) - cpu0 - eval_cpu, 1), "steps": step,
               "lr": lr_at(o, max(step - 1, 0)),
               "train_loss": float(np.mean(losses[-50:])) if losses else None,
               "grad_norm": float(np.median(norms[-50:])) if norms else None,
@@ -233,7 +248,8 @@ def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, me
     if base == a.table_width:  # the authoritative table (svtrain eval's code), for the width under study
         ref = evaluate(model, eval_src, eval_idx, cfg.data.crop, means, 8, o.seed)
         ref["matches_points"] = all(abs(ref["model"][c] - final[c]) < 1e-5 for c in COLUMNS)
-    return {"base_width": base, "max_width": 8 * base, "levels": cfg.model.levels,
+    return {"base_width": base, "max_width": 8 * base, "steps_from": "quiet calibration" if quiet else
+            ("--steps" if a.steps else "calibrated at start"), "levels": cfg.model.levels,
             "parameters": count_parameters(model), "setup_s": round(setup_s, 1), "probe_it_per_s": probe_rate and round(probe_rate, 3),
             "steps": step, "it_per_s": round(step / final["wall_s"], 3),
             "cpu_s_per_step": round(final["cpu_s"] / max(step, 1), 3), "load1_start": round(load0, 2),
@@ -294,8 +310,17 @@ def main(argv=None) -> None:
     ap.add_argument("--tol", type=float, default=0.05, help="'within a few %%' of the width rule")
     ap.add_argument("--out", default=str(RESULTS), help="output folder")
     ap.add_argument("--png", default=str(IMG / "chart_training.png"), help="chart ('' = none)")
+    ap.add_argument("--calibrate-only", default="", metavar="JSON",
+                    help="measure each width's it/s and budget step count, write them to JSON and stop")
+    ap.add_argument("--steps-from", default="", metavar="JSON",
+                    help="train each width for the steps a --calibrate-only run recorded (quiet calibration)")
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
+    a.calibration = {}
+    if a.steps_from:
+        cal = json.loads(Path(a.steps_from).read_text())
+        a.calibration = cal["widths"]
+        a.budget_s = float(cal["budget_wall_s"])
     t_all = time.time()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -307,6 +332,21 @@ def main(argv=None) -> None:
 
     cfg0 = make_cfg(a, a.widths[0])
     src = open_source(cfg0.data)
+    if a.calibrate_only:
+        train_idx, _ = split_by_source(src, cfg0.data.holdout, a.seed)
+        cal = {}
+        for w in sorted(a.widths):
+            cfg = make_cfg(a, w)
+            ds = PairDataset(src, train_idx, cfg.data.crop, cfg.optim.seed, train=True, flips=cfg.data.augment)
+            load = os.getloadavg()[0]
+            steps, rate = calibrate_steps(cfg, ds, a.budget_s)
+            cal[str(w)] = {"steps": steps, "it_per_s": round(rate, 4), "load1_before": round(load, 2)}
+            print(json.dumps({"base_width": w, **cal[str(w)]}), flush=True)
+        write_results(Path(a.calibrate_only), {
+            "benchmark": "bench_train_budget --calibrate-only", "budget_wall_s": a.budget_s, "compile_loss": a.compile,
+            "widths": cal, "command": "python3 benchmarks/bench_train_budget.py " + " ".join(argv or sys.argv[1:])},
+            a.note)
+        return
     train_idx, test_idx = split_by_source(src, cfg0.data.holdout, a.seed)
     n_eval = min(a.eval_views, len(test_idx))
     eval_idx = test_idx[np.unique(np.linspace(0, len(test_idx) - 1, n_eval).round().astype(np.int64))]

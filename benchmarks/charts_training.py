@@ -29,7 +29,7 @@ def plot(json_path=DEFAULT_JSON, png_path=DEFAULT_PNG) -> Path:
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for k, row in enumerate(sorted(res["widths"], key=lambda r: r["base_width"])):
         pts = row["points"]
-        x = [p["wall_s"] / 60 for p in pts]
+        x = [p.get("budget_s", p["wall_s"]) / 60 for p in pts]  # quiet-equivalent when calibrated apart
         y = [p["rerender"] for p in pts]
         w = row["base_width"]
         is_default = w == default
@@ -44,7 +44,7 @@ def plot(json_path=DEFAULT_JSON, png_path=DEFAULT_PNG) -> Path:
         if name in res.get("baselines", {}):
             ax.axhline(res["baselines"][name]["rerender"], color=color, ls=ls, lw=1.4,
                        label=f"baseline: {label}")
-    ax.set_xlabel("training wall time (min, 2 CPU cores; evaluation excluded)")
+    ax.set_xlabel("training time (min, 2 quiet CPU cores; evaluation excluded)")
     ax.set_ylabel("held-out re-render RMSE")
     split = res.get("split", {})
     ax.set_title(f"Eval re-render RMSE vs training time ({split.get('eval_views', '?')} held-out views, "
