@@ -42,7 +42,7 @@ import os
 import re
 import shutil
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -74,13 +74,40 @@ class ArraySpec:
         dtype: numpy dtype name on disk.
         encoding: how values map to meaning, e.g. "linear [0,1] as uint16/65535".
         space: colour space or "n/a".
-        chunk_samples: chunk length along the sample axis; None uses the store's chunk.
+        dims: names of the per-sample axes, one per entry of ``shape`` (the store prepends ``sample``): the zarr
+            ``dimension_names`` that let xarray open the store. Arrays of one store that share a name share its
+            length. Empty: ``<array>_<axis>``.
+        attrs: the array's own attributes, in CF conventions (``long_name``, ``units``, ``scale_factor`` /
+            ``add_offset`` where the stored integers are a linear encoding, ``transfer_function`` where they are
+            not): what xarray, or any reader without svgen, decodes and shows.
     """
 
     shape: tuple[int, ...]
     dtype: str
     encoding: str = ""
     space: str = "n/a"
+    dims: tuple[str, ...] = ()
+    attrs: dict = field(default_factory=dict, compare=False, hash=False)
+
+    def dimension_names(self, name: str) -> tuple[str, ...]:
+        """("sample", per-sample axis names) of this array stored as ``name``."""
+        dims = self.dims or tuple(f"{name}_{i}" for i in range(len(self.shape)))
+        if len(dims) != len(self.shape):
+            raise ValueError(f"array {name!r}: {len(dims)} dimension names for shape {self.shape}")
+        return (SAMPLE_DIM, *dims)
+
+    def array_attrs(self) -> dict:
+        """The per-array attributes written to its zarr.json (CF attributes, the encoding and the space)."""
+        out = dict(self.attrs)
+        if self.encoding:
+            out.setdefault("encoding", self.encoding)
+        if self.space != "n/a":
+            out.setdefault("colour_space", self.space)
+        return out
+
+
+#: the name of the sample axis (axis 0) of every array of every store.
+SAMPLE_DIM = "sample"
 
 
 def config_hash(config: dict) -> str:
@@ -236,7 +263,8 @@ class StoreWriter:
         g = zarr.open_group(self.creating, mode="w", zarr_format=3)
         for name, spec in self.arrays.items():
             g.create_array(name, shape=(self.n, *spec.shape), chunks=(self.chunk, *spec.shape), dtype=spec.dtype,
-                           compressors=_compressors(), fill_value=0, dimension_names=None)
+                           compressors=_compressors(), fill_value=0,
+                           dimension_names=spec.dimension_names(name), attributes=spec.array_attrs())
         g.attrs.update({
             "svgen": {
                 "kind": self.kind, "schema_version": SCHEMA_VERSION, "complete": False, "config_hash": self.hash,
