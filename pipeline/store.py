@@ -116,10 +116,10 @@ def config_hash(config: dict) -> str:
 
 
 def _store_versions() -> dict[str, str]:
-    """The libraries' versions a store records. Without ``svgen_source`` (the git describe of the imported tree):
-    it names the checkout, not the code's behaviour, and would make a store's zarr.json differ between a clean run
-    and a resumed one, or between two copies of one commit (tests/test_dvc_pipeline.py compares whole trees)."""
-    return {k: v for k, v in library_versions().items() if k != "svgen_source"}
+    """The versions a store records: the libraries', and ``svgen``, the running code's (git describe in a checkout,
+    :func:`svcore.versions.svgen_version`). It names the checkout, so two runs compared byte for byte must run the
+    same code tree (tests/test_dvc_pipeline.py runs its reference with the ``svgen`` that ``dvc repro`` runs)."""
+    return library_versions()
 
 
 def partial_path(path: str | os.PathLike) -> Path:
@@ -325,6 +325,9 @@ class StoreWriter:
         meta.update(attrs or {})
         # a partial started by an older svgen (schema 1, "ok" markers) gets its manifest here, hence schema 2
         meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST, "schema_version": SCHEMA_VERSION}
+        now = _store_versions()["svgen"]
+        if meta["svgen"].get("versions", {}).get("svgen") != now:  # resumed by other code than started it
+            meta["svgen"]["versions"] = {**meta["svgen"].get("versions", {}), "svgen_finished_by": now}
         g.attrs.put(meta)
         shutil.rmtree(self.partial / DONE_DIR)
         # zarr's LocalStore writes each chunk to "<key>.<uuid hex>.partial" and renames it: a kill mid-write leaves

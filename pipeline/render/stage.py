@@ -101,7 +101,7 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
         StoreError: an input missing or of the wrong kind.
     """
     from ..svbrdf_store import SVBRDFInputs
-    from .scene import scene_constants
+    from .scene import mi, scene_constants, scene_description
     from .store import KIND, array_specs
     from .views import R_MAX, R_MIN, ZOOM_MAX, ZOOM_MIN
 
@@ -111,7 +111,8 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
         "presets": src.presets,
         "categories": src.categories,
         "scene": {**scene_constants(), "light_model": cfg.light, "spp": cfg.spp, "sampler": cfg.sampler,
-                  "output": "linear LDR radiance clipped to [0, 1]"},
+                  "output": "linear LDR radiance clipped to [0, 1]", "mitsuba_variant": mi.variant(),
+                  "description": scene_description(cfg.light, cfg.spp, cfg.sampler)},
         "view_distribution": {"light_radius": [R_MIN, R_MAX], "light_radius_law": "uniform over the annulus",
                               "light_radius_override": "per-sample light_radius of stress inputs",
                               "zoom": [ZOOM_MIN, ZOOM_MAX], "zoom_law": "log-uniform", "rotation": "U(0, 2 pi)",
