@@ -337,6 +337,11 @@ class StoreWriter:
             if orphan.is_file() and ZARR_TMP.search(orphan.name):
                 orphan.unlink()
         zarr.consolidate_metadata(self.partial)
+        from .card import CARD, render_card
+
+        # the dataset card, from the attributes just written (after consolidation, which would warn about a file
+        # outside the zarr hierarchy); inside the partial store, so it appears with the finished store and not before
+        (self.partial / CARD).write_text(render_card(zarr.open_consolidated(self.partial, mode="r", zarr_format=3)))
         # after consolidation, which would warn about a file that is not part of the zarr hierarchy
         (self.partial / MANIFEST).write_text(json.dumps(manifest, sort_keys=True, separators=(",", ":")))
         os.replace(self.partial, self.final)  # still under the lock: nobody else can have made final

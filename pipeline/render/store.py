@@ -188,6 +188,10 @@ class RendersReader:
         per = self.presets_of_svbrdf()
         return [p for p in per for _ in range(self.views)]
 
+    def stored_split(self) -> dict | None:
+        """The held-out split recorded at render time (``svcore.split.split_record``), None in older stores."""
+        return self.attrs.get("split")
+
     def categories_of_views(self) -> list[str | None]:
         """Stress category of every view (None outside stress sets), one read."""
         cats = self.attrs["categories"]
