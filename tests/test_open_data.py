@@ -105,6 +105,7 @@ def test_xarray_decodes_renders_as_svgen_reads_them(stores):
         assert row == {k: float(x) for k, x in r.view_params(i).as_dict().items()}
     base = r.base_maps(1)
     np.testing.assert_allclose(ds["diffuse"][1].values, base.diffuse, rtol=0, atol=F32)
+    np.testing.assert_allclose(ds["normal"][1].values, base.normal, rtol=0, atol=NORMAL_RENORM)
 
 
 def test_imported_renders_store_opens_with_xarray(stores, tmp_path):
