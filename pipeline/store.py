@@ -11,8 +11,11 @@ Life of a store written by a stage:
    ``.done/<chunk>``; a marker exists only after its chunk's bytes are on disk.
 3. :meth:`StoreWriter.finalize` checks every marker, writes the chunk manifest
    (``svgen_manifest.json``: per array and chunk, the chunk file's size and SHA-256, or null where zarr wrote
-   no file because the chunk is all fill value), writes ``complete: true``, consolidates metadata and renames
-   ``.partial`` into place.
+   no file because the chunk is all fill value), writes ``complete: true``, consolidates metadata, writes the
+   dataset card ``README.md`` (:mod:`pipeline.card`) and renames ``.partial`` into place.
+
+Every array has ``dimension_names`` (``sample`` first) and its own CF attributes (:class:`ArraySpec`), so
+``xarray.open_zarr`` opens any store and decodes the maps' codes by their ``scale_factor``/``add_offset``.
 
 Creation is atomic: the group, its arrays and attributes are built in ``<out>.partial.creating`` and renamed to
 ``<out>.partial`` only when whole, so a ``.partial`` is always resumable; a leftover ``.creating`` (or a
