@@ -103,7 +103,8 @@ def _command(kind: str, attrs: dict) -> tuple[str, str]:
     return {"variants": ("svgen sample OUT --params params.yaml", "sample"),
             "blends": ("svgen blend VARIANTS OUT --params params.yaml", "blend"),
             "stress": ("svgen stress OUT --params params.yaml", "stress"),
-            "renders": (f"svgen render {inputs or 'INPUTS...'} OUT --params params.yaml", "render")}[kind]
+            "renders": (f"svgen render {inputs or 'INPUTS...'} OUT --params params.yaml", "render")}.get(
+        kind, (f"(a {kind} store: no svgen command makes it)", kind))
 
 
 def _section(name: str, config: dict) -> dict:
@@ -134,7 +135,7 @@ def render_card(group) -> str:
         arr = group[name]
         dims = list(arr.metadata.dimension_names or [])
         arrays.append((name, dims, list(arr.shape), str(arr.dtype), dict(arr.attrs)))
-    views = int(group["image"].shape[1]) if kind == "renders" else 1
+    views = int(group["image"].shape[1]) if kind == "renders" and "image" in group else 1
     split = attrs.get("split")
     front = {
         "license": DATA_LICENSE,

@@ -18,6 +18,10 @@ Aligned maps are not stored: a view's maps are recomputed from the stored base m
 line up with the image pixel for pixel and cost no bytes. The decision and its numbers (bytes and read time
 per view, stored vs recomputed) are in benchmarks/results/render.json (``storage``).
 
+Group attributes beside the arrays: ``scene`` (its constants, the Mitsuba variant, a description in words),
+``view_distribution``, ``inputs`` (paths relative to the store's directory), ``presets``, ``categories`` and
+``split``: the held-out split of training's defaults (:mod:`svcore.split`), which ``svtrain`` reads back.
+
 :class:`RendersReader` numbers views 0 .. N*V - 1 (view i is view i % V of SVBRDF i // V).
 """
 from __future__ import annotations
