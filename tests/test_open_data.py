@@ -278,3 +278,16 @@ def test_the_readme_example_runs_and_reads_what_svgen_reads(stores):
     np.testing.assert_allclose(ns["image"], r.image(0), rtol=0, atol=F32)
     np.testing.assert_allclose(ns["diffuse"], r.base_maps(0).diffuse, rtol=0, atol=F32)
     assert ns["test"] == set(r.stored_split()["test_materials"])
+
+
+def test_card_of_a_missing_or_foreign_store_is_one_line_exit_2(tmp_path, svgen_cli):
+    g = zarr.open_group(tmp_path / "foreign.zarr", mode="w", zarr_format=3)
+    g.create_array("x", shape=(2,), dtype="f4")
+    zarr.consolidate_metadata(tmp_path / "foreign.zarr")
+    (tmp_path / "plain").mkdir()
+    for target, words in (("nothing.zarr", "no store at"), ("foreign.zarr", "not an svgen store"),
+                          ("plain", "not a zarr v3 store")):
+        for extra in ((), ("--write",)):
+            code, err = svgen_cli("card", tmp_path / target, *extra)
+            assert code == 2 and err.count("\n") == 1 and words in err and "Traceback" not in err, err
+    assert not (tmp_path / "plain" / "README.md").exists() and not (tmp_path / "foreign.zarr" / "README.md").exists()
