@@ -20,6 +20,7 @@ COMMANDS: dict[str, str] = {
     "stress": "pipeline.cmd_stress:stress",
     "import": "pipeline.cmd_import:import_",
     "stats": "pipeline.cmd_stats:stats",
+    "card": "pipeline.cmd_card:card",
 }
 
 

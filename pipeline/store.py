@@ -11,8 +11,11 @@ Life of a store written by a stage:
    ``.done/<chunk>``; a marker exists only after its chunk's bytes are on disk.
 3. :meth:`StoreWriter.finalize` checks every marker, writes the chunk manifest
    (``svgen_manifest.json``: per array and chunk, the chunk file's size and SHA-256, or null where zarr wrote
-   no file because the chunk is all fill value), writes ``complete: true``, consolidates metadata and renames
-   ``.partial`` into place.
+   no file because the chunk is all fill value), writes ``complete: true``, consolidates metadata, writes the
+   dataset card ``README.md`` (:mod:`pipeline.card`) and renames ``.partial`` into place.
+
+Every array has ``dimension_names`` (``sample`` first) and its own CF attributes (:class:`ArraySpec`), so
+``xarray.open_zarr`` opens any store and decodes the maps' codes by their ``scale_factor``/``add_offset``.
 
 Creation is atomic: the group, its arrays and attributes are built in ``<out>.partial.creating`` and renamed to
 ``<out>.partial`` only when whole, so a ``.partial`` is always resumable; a leftover ``.creating`` (or a
@@ -42,7 +45,7 @@ import os
 import re
 import shutil
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -74,13 +77,40 @@ class ArraySpec:
         dtype: numpy dtype name on disk.
         encoding: how values map to meaning, e.g. "linear [0,1] as uint16/65535".
         space: colour space or "n/a".
-        chunk_samples: chunk length along the sample axis; None uses the store's chunk.
+        dims: names of the per-sample axes, one per entry of ``shape`` (the store prepends ``sample``): the zarr
+            ``dimension_names`` that let xarray open the store. Arrays of one store that share a name share its
+            length. Empty: ``<array>_<axis>``.
+        attrs: the array's own attributes, in CF conventions (``long_name``, ``units``, ``scale_factor`` /
+            ``add_offset`` where the stored integers are a linear encoding, ``transfer_function`` where they are
+            not): what xarray, or any reader without svgen, decodes and shows.
     """
 
     shape: tuple[int, ...]
     dtype: str
     encoding: str = ""
     space: str = "n/a"
+    dims: tuple[str, ...] = ()
+    attrs: dict = field(default_factory=dict, compare=False, hash=False)
+
+    def dimension_names(self, name: str) -> tuple[str, ...]:
+        """("sample", per-sample axis names) of this array stored as ``name``."""
+        dims = self.dims or tuple(f"{name}_{i}" for i in range(len(self.shape)))
+        if len(dims) != len(self.shape):
+            raise ValueError(f"array {name!r}: {len(dims)} dimension names for shape {self.shape}")
+        return (SAMPLE_DIM, *dims)
+
+    def array_attrs(self) -> dict:
+        """The per-array attributes written to its zarr.json (CF attributes, the encoding and the space)."""
+        out = dict(self.attrs)
+        if self.encoding:
+            out.setdefault("encoding", self.encoding)
+        if self.space != "n/a":
+            out.setdefault("colour_space", self.space)
+        return out
+
+
+#: the name of the sample axis (axis 0) of every array of every store.
+SAMPLE_DIM = "sample"
 
 
 def config_hash(config: dict) -> str:
@@ -89,10 +119,10 @@ def config_hash(config: dict) -> str:
 
 
 def _store_versions() -> dict[str, str]:
-    """The libraries' versions a store records. Without ``svgen_source`` (the git describe of the imported tree):
-    it names the checkout, not the code's behaviour, and would make a store's zarr.json differ between a clean run
-    and a resumed one, or between two copies of one commit (tests/test_dvc_pipeline.py compares whole trees)."""
-    return {k: v for k, v in library_versions().items() if k != "svgen_source"}
+    """The versions a store records: the libraries', and ``svgen``, the running code's (git describe in a checkout,
+    :func:`svcore.versions.svgen_version`). It names the checkout, so two runs compared byte for byte must run the
+    same code tree (tests/test_dvc_pipeline.py runs its reference with the ``svgen`` that ``dvc repro`` runs)."""
+    return library_versions()
 
 
 def partial_path(path: str | os.PathLike) -> Path:
@@ -236,7 +266,8 @@ class StoreWriter:
         g = zarr.open_group(self.creating, mode="w", zarr_format=3)
         for name, spec in self.arrays.items():
             g.create_array(name, shape=(self.n, *spec.shape), chunks=(self.chunk, *spec.shape), dtype=spec.dtype,
-                           compressors=_compressors(), fill_value=0, dimension_names=None)
+                           compressors=_compressors(), fill_value=0,
+                           dimension_names=spec.dimension_names(name), attributes=spec.array_attrs())
         g.attrs.update({
             "svgen": {
                 "kind": self.kind, "schema_version": SCHEMA_VERSION, "complete": False, "config_hash": self.hash,
@@ -297,6 +328,9 @@ class StoreWriter:
         meta.update(attrs or {})
         # a partial started by an older svgen (schema 1, "ok" markers) gets its manifest here, hence schema 2
         meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST, "schema_version": SCHEMA_VERSION}
+        now = _store_versions()["svgen"]
+        if meta["svgen"].get("versions", {}).get("svgen") != now:  # resumed by other code than started it
+            meta["svgen"]["versions"] = {**meta["svgen"].get("versions", {}), "svgen_finished_by": now}
         g.attrs.put(meta)
         shutil.rmtree(self.partial / DONE_DIR)
         # zarr's LocalStore writes each chunk to "<key>.<uuid hex>.partial" and renames it: a kill mid-write leaves
@@ -306,6 +340,11 @@ class StoreWriter:
             if orphan.is_file() and ZARR_TMP.search(orphan.name):
                 orphan.unlink()
         zarr.consolidate_metadata(self.partial)
+        from .card import CARD, render_card
+
+        # the dataset card, from the attributes just written (after consolidation, which would warn about a file
+        # outside the zarr hierarchy); inside the partial store, so it appears with the finished store and not before
+        (self.partial / CARD).write_text(render_card(zarr.open_consolidated(self.partial, mode="r", zarr_format=3)))
         # after consolidation, which would warn about a file that is not part of the zarr hierarchy
         (self.partial / MANIFEST).write_text(json.dumps(manifest, sort_keys=True, separators=(",", ":")))
         os.replace(self.partial, self.final)  # still under the lock: nobody else can have made final

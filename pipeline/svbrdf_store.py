@@ -33,13 +33,41 @@ KINDS = ("variants", "blends", "stress")
 Q = 65535.0
 
 
-def map_specs(size: int) -> dict[str, ArraySpec]:
-    """ArraySpecs of the four maps at ``size``²."""
+#: the maps' CF attributes: their uint16 codes are linear encodings, so ``scale_factor``/``add_offset`` decode them
+#: (xarray does it on open): value = code * scale_factor + add_offset.
+LINEAR_SRGB = "linear sRGB primaries (ITU-R BT.709, D65 white), no transfer function"
+MAP_ATTRS = {
+    "normal": {"long_name": "surface normal in tangent space (x right, y up in the image, z out of the surface)",
+               "units": "1", "scale_factor": 2.0 / Q, "add_offset": -1.0,
+               "comment": "stored (n + 1) / 2 * 65535 rounded; a decoded normal is within 3e-5 of unit length: "
+                          "renormalise it (svgen does); OpenGL convention (y up)"},
+    "diffuse": {"long_name": "diffuse albedo", "units": "1", "scale_factor": 1.0 / Q, "add_offset": 0.0},
+    "specular": {"long_name": "specular albedo F0 (GGX, Schlick Fresnel)", "units": "1", "scale_factor": 1.0 / Q,
+                 "add_offset": 0.0},
+    "roughness": {"long_name": "perceptual roughness r (GGX alpha = r^2)", "units": "1", "scale_factor": 1.0 / Q,
+                  "add_offset": 0.0},
+}
+#: per-sample axis names of each map (roughness has one channel: its own axis name, since xarray needs one length
+#: per name).
+MAP_DIMS = {"normal": "xyz", "diffuse": "rgb", "specular": "rgb", "roughness": "roughness_channel"}
+
+
+def map_specs(size: int, dims: tuple[str, str] = ("y", "x")) -> dict[str, ArraySpec]:
+    """ArraySpecs of the four maps at ``size``²; ``dims``: the names of their row and column axes."""
     enc = {"normal": "(n+1)/2 * 65535", "diffuse": "linear * 65535", "specular": "linear * 65535",
            "roughness": "perceptual roughness * 65535 (alpha = r^2)"}
-    space = {"normal": "tangent (x right, y up, z out)", "diffuse": "linear sRGB primaries",
-             "specular": "linear sRGB primaries", "roughness": "n/a"}
-    return {k: ArraySpec((size, size, c), "uint16", enc[k], space[k]) for k, c in MAP_CHANNELS.items()}
+    space = {"normal": "tangent (x right, y up, z out)", "diffuse": LINEAR_SRGB, "specular": LINEAR_SRGB,
+             "roughness": "n/a"}
+    return {k: ArraySpec((size, size, c), "uint16", enc[k], space[k], (*dims, MAP_DIMS[k]), MAP_ATTRS[k])
+            for k, c in MAP_CHANNELS.items()}
+
+
+def _index(long_name: str, into: str | None = None, **kw) -> dict:
+    """CF attributes of an integer array that is an identifier or an index into a group attribute list."""
+    a = {"long_name": long_name, **kw}
+    if into:
+        a["comment"] = f"index into the group attribute {into!r}; -1: none"
+    return a
 
 
 def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpec]:
@@ -52,18 +80,35 @@ def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpe
             0: no ``params`` array (an imported store, `svgen import`: its materials have no parameters).
     """
     seed = {"variants": "derived variant seed", "blends": "derived blend seed", "stress": "derived sample seed"}
+    seed_attrs = {k: _index(v, comment="svcore.seeds.derive_seed of the stage's master seed and the sample index")
+                  for k, v in seed.items()}
     per_kind = {
-        "variants": {"params": ArraySpec((max_params,), "float32", "exposed parameters in table order, NaN-padded"),
-                     "seed": ArraySpec((), "uint64", seed["variants"]),
-                     "preset": ArraySpec((2,), "int32", "index into attrs.presets; second column -1")},
-        "blends": {"seed": ArraySpec((), "uint64", seed["blends"]),
-                   "parents": ArraySpec((2,), "int64", "variant indices (a, b) in the source store"),
-                   "preset": ArraySpec((2,), "int32", "presets of a and b: index into attrs.presets"),
-                   "alpha": ArraySpec((), "float32", "weight of parent a (mask mode: expected mask mean)")},
-        "stress": {"seed": ArraySpec((), "uint64", seed["stress"]),
-                   "category": ArraySpec((), "int16", "index into attrs.categories"),
-                   "light_radius": ArraySpec((2,), "float32", "light offset radius range of its views (NaN: default)"),
-                   "preset": ArraySpec((2,), "int32", "-1: stress samples mix or alter presets")},
+        "variants": {"params": ArraySpec((max_params,), "float32", "exposed parameters in table order, NaN-padded",
+                                         dims=("param",), attrs={
+                                             "long_name": "the preset's exposed parameters, in its table order",
+                                             "comment": "names per preset: group attribute 'param_names'; NaN: "
+                                                        "beyond the preset's parameter count"}),
+                     "seed": ArraySpec((), "uint64", seed["variants"], attrs=seed_attrs["variants"]),
+                     "preset": ArraySpec((2,), "int32", "index into attrs.presets; second column -1", dims=("parent",),
+                                         attrs=_index("base material", "presets"))},
+        "blends": {"seed": ArraySpec((), "uint64", seed["blends"], attrs=seed_attrs["blends"]),
+                   "parents": ArraySpec((2,), "int64", "variant indices (a, b) in the source store", dims=("parent",),
+                                        attrs=_index("indices of the two blended variants (a, b) in the source store")),
+                   "preset": ArraySpec((2,), "int32", "presets of a and b: index into attrs.presets", dims=("parent",),
+                                       attrs=_index("base materials of a and b", "presets")),
+                   "alpha": ArraySpec((), "float32", "weight of parent a (mask mode: expected mask mean)",
+                                      attrs={"long_name": "weight of parent a (mask mode: the mask's mean)",
+                                             "units": "1"})},
+        "stress": {"seed": ArraySpec((), "uint64", seed["stress"], attrs=seed_attrs["stress"]),
+                   "category": ArraySpec((), "int16", "index into attrs.categories",
+                                         attrs=_index("stress category", "categories")),
+                   "light_radius": ArraySpec((2,), "float32", "light offset radius range of its views (NaN: default)",
+                                             dims=("bound",), attrs={
+                                                 "long_name": "light offset radius range (min, max) of its views",
+                                                 "units": "camera-plane world units (the material plane spans "
+                                                          "[-1, 1])", "comment": "NaN: the default range"}),
+                   "preset": ArraySpec((2,), "int32", "-1: stress samples mix or alter presets", dims=("parent",),
+                                       attrs=_index("base material (-1: stress samples mix or alter presets)"))},
     }
     if kind not in per_kind:
         raise ValueError(f"unknown SVBRDF store kind {kind!r}; known: {', '.join(per_kind)}")

@@ -13,6 +13,7 @@ from typing import Any, ClassVar, Literal
 from pydantic import Field, field_validator, model_validator
 
 from svcore.config import ConfigModel, parse_sets, validate
+from svcore.split import DEFAULT_HOLDOUT
 from svcore.config import resolve as resolve_config
 
 
@@ -49,7 +50,7 @@ class DataConfig(ConfigModel):
     """random crop size fed to the network (the paper crops 288 -> 256); must divide by 2^levels."""
     augment: bool = True
     """random flips and 90° rotations (normals rotated with the image)."""
-    holdout: float = Field(0.1, gt=0, lt=1)
+    holdout: float = Field(DEFAULT_HOLDOUT, gt=0, lt=1)
     """fraction of source materials/presets held out for evaluation (split by material, not sample)."""
     workers: int = Field(2, ge=0)
     """DataLoader worker processes (0 = load in the main process)."""

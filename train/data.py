@@ -20,6 +20,7 @@ from torch.utils.data import DataLoader, Dataset, Sampler
 from materials.maps import pack_maps
 from svcore.errors import StoreError
 from svcore.seeds import stream_rng
+from svcore.split import held_out_names, split_indices
 
 
 class Source(Protocol):
@@ -54,10 +55,11 @@ def preset_ids(src_entry: Any) -> tuple[str, ...]:
 
 
 def split_by_source(src: Source, holdout: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Hold out a fraction of the presets; no preset appears on both sides.
+    """Hold out a fraction of the presets; no preset appears on both sides (:mod:`svcore.split`).
 
-    A sample (a blend may have two sources) is in the test split when all its presets are held out,
-    in the train split when none is, and dropped when it mixes both.
+    A renders store records the split of training's defaults (``data.holdout``, ``optim.seed``) in its attributes
+    (``split``); with those values its recorded held-out materials are used, so the split is the one an outside
+    reader sees. Other values, older stores and other sources compute it.
 
     Returns:
         (train indices, test indices), sorted int64 arrays.
@@ -65,15 +67,10 @@ def split_by_source(src: Source, holdout: float, seed: int = 0) -> tuple[np.ndar
     # a store reader lists every sample's presets in one read; source(i) per sample is the generic fallback
     fast = getattr(src, "source_presets", None)
     ids = [tuple(t) for t in fast()] if fast is not None else [preset_ids(src.source(i)) for i in range(len(src))]
-    names = sorted({n for t in ids for n in t})
-    if len(names) < 2:
-        raise StoreError(f"the held-out split needs at least 2 source presets, the source has {len(names)}")
-    rng = stream_rng(seed, "split.holdout")
-    n_test = min(len(names) - 1, max(1, int(round(holdout * len(names)))))
-    test = set(rng.permutation(names)[:n_test].tolist())
-    train_idx = [i for i, t in enumerate(ids) if not any(n in test for n in t)]
-    test_idx = [i for i, t in enumerate(ids) if all(n in test for n in t)]
-    return np.asarray(train_idx, np.int64), np.asarray(test_idx, np.int64)
+    stored = getattr(src, "stored_split", lambda: None)()
+    if stored is not None and stored.get("holdout") == holdout and stored.get("seed") == seed:
+        return split_indices(ids, stored["test_materials"])
+    return split_indices(ids, held_out_names(ids, holdout, seed))
 
 
 def augment(image: np.ndarray, maps: np.ndarray, rng: np.random.Generator | None, crop: int,

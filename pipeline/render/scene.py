@@ -46,6 +46,19 @@ def scene_constants() -> dict:
             "flash_intensity_w_sr": FLASH_INTENSITY, "sphere_radius": SPHERE_RADIUS}
 
 
+def scene_description(light_model: str, spp: int, sampler: str) -> str:
+    """The capture scene in words and numbers, for a reader without svgen (a renders store's attributes and its
+    dataset card); every number comes from :mod:`materials.capture`."""
+    light = ("a point light" if light_model == "point" else f"a sphere light of radius {SPHERE_RADIUS}")
+    return (f"A {PLANE_SIZE:g} x {PLANE_SIZE:g} material plane at z = 0, centred at the origin, fills the image of a "
+            f"pinhole camera at (0, 0, {CAMERA_DISTANCE:.6f}) looking down -z with up +y and a {FOV_DEG:g} degree "
+            f"field of view across the width. The flash is {light} of intensity pi D^2 = {FLASH_INTENSITY:.6f} W/sr "
+            f"in the plane z = D at the view's offset (light_x, light_y) from the camera. The BRDF is Cook-Torrance "
+            f"GGX (alpha = roughness^2, Schlick-Smith G with k = alpha/2, spherical-Gaussian Schlick Fresnel, "
+            f"diffuse d (1 - s) / pi). Only direct light (Mitsuba integrator 'direct'), {spp} sample(s) per pixel, "
+            f"sampler '{sampler}'; the output is linear radiance clipped to [0, 1] (a gamma-inverted LDR photo).")
+
+
 def _sphere_transform(x: float, y: float):
     return mi.ScalarTransform4f().translate([x, y, CAMERA_DISTANCE]).scale(SPHERE_RADIUS)
 

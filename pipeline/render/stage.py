@@ -101,7 +101,7 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
         StoreError: an input missing or of the wrong kind.
     """
     from ..svbrdf_store import SVBRDFInputs
-    from .scene import scene_constants
+    from .scene import mi, scene_constants, scene_description
     from .store import KIND, array_specs
     from .views import R_MAX, R_MIN, ZOOM_MAX, ZOOM_MIN
 
@@ -111,7 +111,8 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
         "presets": src.presets,
         "categories": src.categories,
         "scene": {**scene_constants(), "light_model": cfg.light, "spp": cfg.spp, "sampler": cfg.sampler,
-                  "output": "linear LDR radiance clipped to [0, 1]"},
+                  "output": "linear LDR radiance clipped to [0, 1]", "mitsuba_variant": mi.variant(),
+                  "description": scene_description(cfg.light, cfg.spp, cfg.sampler)},
         "view_distribution": {"light_radius": [R_MIN, R_MAX], "light_radius_law": "uniform over the annulus",
                               "light_radius_override": "per-sample light_radius of stress inputs",
                               "zoom": [ZOOM_MIN, ZOOM_MAX], "zoom_law": "log-uniform", "rotation": "U(0, 2 pi)",
@@ -127,7 +128,22 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
     config = {**cfg.as_dict(), "inputs": [{k: v for k, v in d.items() if k != "path"} for d in src.describe()]}
     return Stage(KIND, n, cfg.chunk, array_specs(cfg.views, cfg.res, src.size), config, attrs, _chunk_task,
                  dict(inputs=_paths(inputs), cfg=cfg, n=n), desc="render", unit="view", units_per_sample=cfg.views,
-                 inputs=_paths(inputs))
+                 inputs=_paths(inputs), finish=record_split)
+
+
+def record_split(partial) -> dict:
+    """The stage's finish hook: the held-out split of training's defaults (:mod:`svcore.split`), recorded in the
+    store so that a reader without svgen (and ``svtrain``) sees the same split; no ``split`` attribute where the
+    store has fewer than 2 base materials."""
+    import zarr
+
+    from svcore.split import split_record
+
+    g = zarr.open_group(partial, mode="r")
+    names = list(g.attrs.get("presets", []))
+    ids = [tuple(names[p] for p in row if p >= 0) for row in g["preset"][:]]
+    rec = split_record(ids, "svbrdf")
+    return {} if rec is None else {"split": rec}
 
 
 def render_writer(inputs, out, cfg: RenderConfig) -> tuple[StoreWriter, int]:

@@ -18,6 +18,10 @@ Aligned maps are not stored: a view's maps are recomputed from the stored base m
 line up with the image pixel for pixel and cost no bytes. The decision and its numbers (bytes and read time
 per view, stored vs recomputed) are in benchmarks/results/render.json (``storage``).
 
+Group attributes beside the arrays: ``scene`` (its constants, the Mitsuba variant, a description in words),
+``view_distribution``, ``inputs`` (paths relative to the store's directory), ``presets``, ``categories`` and
+``split``: the held-out split of training's defaults (:mod:`svcore.split`), which ``svtrain`` reads back.
+
 :class:`RendersReader` numbers views 0 .. N*V - 1 (view i is view i % V of SVBRDF i // V).
 """
 from __future__ import annotations
@@ -33,23 +37,56 @@ from svcore.errors import StoreError
 from ..store import ArraySpec, ChunkCache, open_store, read_region
 from ..svbrdf_store import decode_maps, map_specs
 from .encoding import ENCODING, decode_srgb8
-from .views import VIEW_FIELDS, ViewParams
+from .views import VIEW_FIELDS, VIEW_LONG_NAMES, VIEW_UNITS, ViewParams
 
 KIND = "renders"
 
 
 def array_specs(views: int, res: int, base: int) -> dict[str, ArraySpec]:
-    """ArraySpecs of a renders store (one SVBRDF = one sample)."""
+    """ArraySpecs of a renders store (one SVBRDF = one sample), with the per-array attributes a reader without
+    svgen needs: the image's nonlinear encoding (no scale_factor: the sRGB curve is not linear), the units of
+    every view parameter."""
+    from ..svbrdf_store import LINEAR_SRGB, _index
+
+    index = {k: _index(*a) for k, a in {
+        "source": ("index of the SVBRDF in its input store",), "source_seed": ("seed of that SVBRDF in its input store",),
+        "input": ("input store", "inputs"), "preset": ("base material(s)", "presets"),
+        "category": ("stress category", "categories")}.items()}
     return {
-        "image": ArraySpec((views, res, res, 3), "uint8", ENCODING, "linear sRGB primaries, stored sRGB-encoded"),
-        "view": ArraySpec((views, len(VIEW_FIELDS)), "float64", "ViewParams fields: " + ", ".join(VIEW_FIELDS)),
-        **map_specs(base),
-        "source": ArraySpec((), "int64", "index of the SVBRDF in its input store"),
-        "source_seed": ArraySpec((), "uint64", "seed of that SVBRDF in its input store"),
-        "input": ArraySpec((), "int16", "which input store (index into attrs.inputs)"),
-        "preset": ArraySpec((2,), "int32", "base material(s): index into attrs.presets, -1 for none"),
-        "category": ArraySpec((), "int16", "stress category: index into attrs.categories, -1 for none"),
+        "image": ArraySpec((views, res, res, 3), "uint8", ENCODING, "linear sRGB primaries, stored sRGB-encoded",
+                           ("view_index", "y", "x", "rgb"), IMAGE_ATTRS),
+        "view": ArraySpec((views, len(VIEW_FIELDS)), "float64", "ViewParams fields: " + ", ".join(VIEW_FIELDS),
+                          dims=("view_index", "view_field"), attrs=view_attrs()),
+        **map_specs(base, ("base_y", "base_x")),
+        "source": ArraySpec((), "int64", "index of the SVBRDF in its input store", attrs=index["source"]),
+        "source_seed": ArraySpec((), "uint64", "seed of that SVBRDF in its input store", attrs=index["source_seed"]),
+        "input": ArraySpec((), "int16", "which input store (index into attrs.inputs)", attrs=index["input"]),
+        "preset": ArraySpec((2,), "int32", "base material(s): index into attrs.presets, -1 for none", dims=("parent",),
+                            attrs=index["preset"]),
+        "category": ArraySpec((), "int16", "stress category: index into attrs.categories, -1 for none",
+                              attrs=index["category"]),
     }
+
+
+#: the image array's attributes: 8-bit codes of the sRGB transfer function, deliberately without scale_factor
+IMAGE_ATTRS = {
+    "long_name": "flash photograph: linear low-dynamic-range radiance clipped to [0, 1]",
+    "units": "1",
+    "colour_space": "linear sRGB primaries (ITU-R BT.709, D65 white); stored sRGB-encoded",
+    "transfer_function": "sRGB (IEC 61966-2-1)",
+    "decode": "v = code / 255; linear = v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4",
+    "comment": "the codes are NOT linear (no scale_factor on purpose): decode with the sRGB curve (e.g. "
+               "colour.cctf_decoding(code / 255, 'sRGB')); row 0 is the top of the image",
+}
+
+
+def view_attrs() -> dict:
+    """Attributes of the ``view`` array: its fields in order, with their units and meaning."""
+    return {"long_name": "per-view light offset, texture transform and render seed",
+            "fields": list(VIEW_FIELDS), "field_units": dict(VIEW_UNITS),
+            "field_long_names": dict(VIEW_LONG_NAMES),
+            "comment": "one row per view in the order of 'fields'; the aligned maps of a view are the base maps "
+                       "under this transform (README.md of the store, 'Pairing an image with its maps')"}
 
 
 class RendersReader:
@@ -154,6 +191,10 @@ class RendersReader:
         """Base material names of every view, in view order (one read; what a split by material needs)."""
         per = self.presets_of_svbrdf()
         return [p for p in per for _ in range(self.views)]
+
+    def stored_split(self) -> dict | None:
+        """The held-out split recorded at render time (``svcore.split.split_record``), None in older stores."""
+        return self.attrs.get("split")
 
     def categories_of_views(self) -> list[str | None]:
         """Stress category of every view (None outside stress sets), one read."""

@@ -42,6 +42,17 @@ from .bsdf import to_planes
 ZOOM_MIN, ZOOM_MAX = 0.7, 1.4
 #: field order of :meth:`ViewParams.as_array` (the per-view row stored in a renders store).
 VIEW_FIELDS = ("light_x", "light_y", "zoom", "rotation", "shift_u", "shift_v", "seed")
+#: units of each field (the store's ``view`` array records them): world units are those of the capture scene, whose
+#: material plane spans [-1, 1]^2 and whose camera looks down from z = D (materials/capture.py).
+VIEW_UNITS = {"light_x": "world unit (material plane spans [-1, 1])", "light_y": "world unit (material plane spans "
+              "[-1, 1])", "zoom": "base-map tiles per picture width", "rotation": "radian",
+              "shift_u": "tile", "shift_v": "tile", "seed": "1"}
+VIEW_LONG_NAMES = {"light_x": "flash offset from the camera along image x (right), in the plane z = D",
+                   "light_y": "flash offset from the camera along image y (up), in the plane z = D",
+                   "zoom": "texture zoom: tiles of the base map across the picture width",
+                   "rotation": "counter-clockwise rotation of the material on screen",
+                   "shift_u": "texture offset along u (right)", "shift_v": "texture offset along v (up)",
+                   "seed": "sampler seed of mi.render (integer < 2^31, exact in float64)"}
 
 
 @dataclass(frozen=True)

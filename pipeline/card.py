@@ -1,0 +1,240 @@
+"""The dataset card (``README.md``) of a store: Hugging Face style, generated from the store's own attributes.
+
+:meth:`pipeline.store.StoreWriter.finalize` writes it into the store before the store is moved into place (so a
+partial store never has one), and ``svgen card STORE [--write]`` prints or regenerates it. It holds nothing that
+is not in the store (no date, no path of the store itself), so the same command gives the same card and two runs
+compared byte for byte still agree.
+
+Pairing an image with its maps: the aligned maps are not stored, they are the base maps under the view's
+transform. The card states that transform as a formula rather than offering an export of aligned maps: the
+formula costs no bytes (aligned maps at 256² would add 170 KB per view, doubling the store), it is exactly what
+:func:`pipeline.render.views.transform_planes` computes, and a reader who wants the arrays can apply it in a
+few lines of numpy; ``svgen export --format exr|deschaintre`` already writes aligned maps as files for those who
+prefer files.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import yaml
+
+from svcore.errors import StoreError
+
+CARD = "README.md"
+#: the licence of generated data (the code's licence is the repository's LICENSE, MIT).
+DATA_LICENSE = "cc-by-4.0"
+
+CITATION = """@article{deschaintre2018single,
+  title   = {Single-Image SVBRDF Capture with a Rendering-Aware Deep Network},
+  author  = {Deschaintre, Valentin and Aittala, Miika and Durand, Fr\\'edo and Drettakis, George and
+             Bousseau, Adrien},
+  journal = {ACM Transactions on Graphics (Proceedings of SIGGRAPH)},
+  volume  = {37}, number = {4}, articleno = {128}, year = {2018},
+  doi     = {10.1145/3197517.3201378}
+}"""
+
+_WHAT = {
+    "variants": "procedural SVBRDFs: perturbed variants of the svgen base materials (or imported materials), four "
+                "tileable maps each (normal, diffuse, specular, roughness) with the parameters and seed that made them",
+    "blends": "alpha-blends of random pairs of variants (normals blended as slopes), four tileable maps each",
+    "stress": "evaluation SVBRDFs of the paper's failure cases, one category per sample",
+    "renders": "flash photographs of SVBRDFs (several random views each) with the base maps they were rendered "
+               "from and each view's light offset and texture transform: the (image, maps) pairs of single-image "
+               "SVBRDF capture",
+}
+
+PAIRING = """Aligned maps are not stored: the maps of view `v` of sample `s` are the base maps of sample `s`
+(`normal`, `diffuse`, `specular`, `roughness`, decoded) under the view's transform. With the view row
+`light_x, light_y, zoom, rotation, shift_u, shift_v, seed = view[s, v]` (rotation θ), the base-map side `B` and
+the image side `R`, for output pixel (row i, column j), numpy row 0 at the image top:
+
+    ss = max(1, ceil(zoom * B / R))                      # subsamples per axis (box prefilter when minifying)
+    for each subsample (a, b) in 0..ss-1:
+        x = (j + (b + 0.5) / ss) / R - 0.5               # picture coordinates, x right, y up, in picture widths
+        y = 0.5 - (i + (a + 0.5) / ss) / R
+        u = zoom * ( cos θ * x + sin θ * y) + shift_u    # texture coordinates in tiles
+        t = zoom * (-sin θ * x + cos θ * y) + shift_v
+        col = u * B - 0.5 + B / 2 ;  row = -t * B - 0.5 + B / 2   (both modulo B: the maps tile)
+        value = bilinear lookup of the base maps at (row, col), wrapping at the borders
+    m = mean of the ss * ss values (all 10 channels: normal xyz, diffuse rgb, specular rgb, roughness)
+    normal = normalize(cos θ * m_x - sin θ * m_y,  sin θ * m_x + cos θ * m_y,  max(m_z, 1e-4))
+    diffuse, specular, roughness = clip(m, 0, 1)
+
+The base normal is decoded as `code * 2 / 65535 - 1` and renormalised before the lookup. This is
+`pipeline.render.views.transform_planes`, the very function that made the render's textures, so these maps line
+up with the image pixel for pixel (svgen's tests hold the two together). Why a formula and not a stored copy:
+stored aligned maps would double the store (about 170 KB more per 256² view) for values that are a pure
+function of what is stored; `svgen export RENDERS OUT --format exr` writes them as files when files are wanted."""
+
+_LIMITS = {
+    "renders": [
+        "Synthetic: procedural materials rendered with one BRDF model (GGX, Schlick Fresnel) and only direct light "
+        "from a point flash; real photographs add noise, lens effects, interreflections and other BRDFs.",
+        "Fixed flash intensity and camera distance (the paper's scale ambiguity): albedo and light are not "
+        "separable beyond that convention.",
+        "The paper's failure cases (its Section 6), reproduced by `svgen stress`: saturated glossy highlights, "
+        "a highlight at the image edge, print-like patterns on a flat surface read as relief, very dark or very "
+        "bright albedo, maps whose features do not correlate.",
+        "Images are 8-bit sRGB-encoded low-dynamic-range values clipped to [0, 1]: highlights saturate.",
+    ],
+}
+_LIMITS["variants"] = _LIMITS["blends"] = [
+    "Procedural materials of 9 classes (paint, plastic, leather, metal, wood, fabric, stone, ceramic tiles, "
+    "ground): they cover what the generators can express, not the world's materials.",
+    "Maps are 16-bit codes of linear values: quantisation step 1.5e-5.",
+]
+_LIMITS["stress"] = ["Made to fail: these samples are for evaluation, not training (README 'Where the method fails')."]
+
+
+def _size_category(n: int) -> str:
+    for bound, name in ((1_000, "n<1K"), (10_000, "1K<n<10K"), (100_000, "10K<n<100K"), (1_000_000, "100K<n<1M")):
+        if n < bound:
+            return name
+    return "1M<n<10M"
+
+
+def _command(kind: str, attrs: dict) -> tuple[str, str]:
+    """(command line, params.yaml section name) that makes a store of this kind with these attributes."""
+    if "import" in attrs:
+        extra = " --as renders" if kind == "renders" else ""
+        return f"svgen import SOURCE... OUT{extra} --params params.yaml", "import"
+    inputs = " ".join(i.get("path", "?") for i in attrs.get("inputs", []))
+    return {"variants": ("svgen sample OUT --params params.yaml", "sample"),
+            "blends": ("svgen blend VARIANTS OUT --params params.yaml", "blend"),
+            "stress": ("svgen stress OUT --params params.yaml", "stress"),
+            "renders": (f"svgen render {inputs or 'INPUTS...'} OUT --params params.yaml", "render")}.get(
+        kind, (f"(a {kind} store: no svgen command makes it)", kind))
+
+
+def _section(name: str, config: dict) -> dict:
+    """The keys of ``config`` that are settable in a params.yaml section (the rest identify inputs)."""
+    from .config import STAGE_CONFIGS
+
+    cls = STAGE_CONFIGS.get(name)
+    keys = set(cls.model_fields) if cls is not None else set(config)
+    return {k: v for k, v in config.items() if k in keys}
+
+
+def _decode(a: dict) -> str:
+    if "scale_factor" in a:
+        return f"code * {a['scale_factor']:.10g} + {a.get('add_offset', 0.0):g}"
+    if "transfer_function" in a:
+        return f"{a['transfer_function']}: {a.get('decode', '')}"
+    return "as stored"
+
+
+def render_card(group) -> str:
+    """The dataset card of an open store group (complete or being finalized)."""
+    attrs = dict(group.attrs)
+    meta = attrs.get("svgen", {})
+    kind = meta.get("kind", "?")
+    n = int(meta.get("n", 0))
+    arrays = []
+    for name in sorted(meta.get("arrays", {})):
+        arr = group[name]
+        dims = list(arr.metadata.dimension_names or [])
+        arrays.append((name, dims, list(arr.shape), str(arr.dtype), dict(arr.attrs)))
+    views = int(group["image"].shape[1]) if kind == "renders" and "image" in group else 1
+    split = attrs.get("split")
+    front = {
+        "license": DATA_LICENSE,
+        "pretty_name": f"svgen {kind}",
+        "task_categories": ["image-to-image"],
+        "tags": ["svbrdf", "material-capture", "inverse-rendering", "synthetic", "zarr"],
+        "size_categories": [_size_category(n * views)],
+        "dataset_info": {
+            "features": [{"name": a[0], "dtype": a[3], "shape": a[2][1:], "dims": a[1]} for a in arrays],
+            "splits": ([{"name": s, "num_examples": split["counts"][s] * views} for s in ("train", "test")]
+                       if split else [{"name": "all", "num_examples": n * views}]),
+        },
+    }
+    cmd, section = _command(kind, attrs)
+    config = attrs.get("config", {})
+    seeds = {k: v for k, v in config.items() if "seed" in k and not isinstance(v, (dict, list))}
+    versions = meta.get("versions", {})
+    out = ["---", yaml.safe_dump(front, sort_keys=False, width=120).rstrip(), "---", "",
+           f"# svgen {kind} store", "",
+           f"A zarr v3 store written by svgen (version `{versions.get('svgen', 'unknown')}`): "
+           f"{_WHAT.get(kind, kind)}. {n} samples"
+           + (f" x {views} views = {n * views} (image, maps) pairs" if kind == "renders" else "") + ".", "",
+           "## What it contains", "",
+           "Every array has the sample axis first (`sample`, chunked along it) and named dimensions, so "
+           "`xarray.open_zarr(store)` opens it; integer codes decode by their `scale_factor`/`add_offset` (xarray "
+           "applies them) or, for the sRGB-encoded images, by the transfer function named in their attributes.", "",
+           "| array | dims | shape | dtype | decoded value | meaning |", "|---|---|---|---|---|---|"]
+    for name, dims, shape, dtype, a in arrays:
+        units = f" [{a['units']}]" if "units" in a else ""
+        out.append(f"| `{name}` | {', '.join(dims)} | {tuple(shape)} | {dtype} | {_decode(a)} | "
+                   f"{a.get('long_name', '')}{units} |")
+    if kind == "renders" and "view" in group:
+        va = dict(group["view"].attrs)
+        out += ["", "View parameters (`view` array, last axis in this order):", "",
+                "| field | unit | meaning |", "|---|---|---|"]
+        for f in va.get("fields", []):
+            out.append(f"| `{f}` | {va.get('field_units', {}).get(f, '')} | "
+                       f"{va.get('field_long_names', {}).get(f, '')} |")
+    for key in ("presets", "categories"):
+        if attrs.get(key):
+            out += ["", f"`{key}` (group attribute; index arrays point into it): "
+                        + ", ".join(f"`{p}`" for p in attrs[key]) + "."]
+    if kind == "renders":
+        scene = attrs.get("scene", {})
+        out += ["", "## The scene", "", scene.get("description", json.dumps(scene, sort_keys=True)),
+                "", f"Mitsuba variant: `{scene.get('mitsuba_variant', 'n/a')}`.", "",
+                "## Pairing an image with its maps", "", PAIRING]
+    out += ["", "## Splits", ""]
+    if split:
+        out += [f"{split['rule'].capitalize()}. Held out with fraction {split['holdout']} and seed {split['seed']} "
+                f"(stream `{split['seed_stream']}`; what `svtrain` uses with `data.holdout={split['holdout']}` and "
+                f"`optim.seed={split['seed']}`): test materials " + ", ".join(f"`{t}`" for t in
+                                                                             split["test_materials"])
+                + f". Samples: {split['counts']['train']} train, {split['counts']['test']} test, "
+                  f"{split['counts']['dropped']} dropped (views of a sample share its split)."]
+    else:
+        out += ["No split recorded: every sample is in one set (a building block of the pipeline, or fewer than two "
+                "base materials)."]
+    out += ["", "## How it was made", "", "```", cmd, "```", "",
+            f"with this `{section}:` section of `params.yaml` (the resolved configuration; the whole of it, with the "
+            "inputs' identities, is the store's `config` attribute):", "", "```yaml",
+            yaml.safe_dump({section: _section(section, config)}, sort_keys=False, width=120).rstrip(), "```", "",
+            "Every sample is a pure function of (the stage's master seed, the sample index) and the code: the same "
+            "command gives the same bytes with any number of workers. Seeds: "
+            + (", ".join(f"`{k}` = {v}" for k, v in seeds.items()) or "none") + "."]
+    if attrs.get("inputs"):
+        out += ["", "Inputs (paths relative to this store's directory):", ""]
+        out += [f"- `{i.get('path')}`: {i.get('kind')}, {i.get('n')} samples, config hash `{i.get('config_hash')}`"
+                for i in attrs["inputs"]]
+    out += ["", "Versions: " + ", ".join(f"{k} {v}" for k, v in sorted(versions.items())) + ".", "",
+            "## Intended use", "",
+            "Training and evaluating single-image SVBRDF capture networks (Deschaintre et al. 2018), and studying "
+            "their failure cases. Not a catalogue of real materials: do not read measured reflectance into it.", "",
+            "## Known limits", ""]
+    out += [f"- {x}" for x in _LIMITS.get(kind, [])]
+    out += ["", "## Licence", "",
+            f"The data: CC BY 4.0 ({DATA_LICENSE}). The svgen code that made it: MIT (the repository's LICENSE). "
+            "Imported materials keep their own licences (the `materials` attribute records their sources).", "",
+            "## Citation", "", "The method this data follows:", "", "```bibtex", CITATION, "```", ""]
+    return "\n".join(out)
+
+
+def card_text(path) -> str:
+    """The card of a complete store at ``path`` (any kind).
+
+    Raises:
+        StoreError: missing, incomplete or not an svgen store.
+    """
+    from .store import _ALL_KINDS, open_store
+
+    return render_card(open_store(path, _ALL_KINDS))
+
+
+def write_card(path) -> Path:
+    """(Re)write the card of a complete store; returns its path."""
+    text = card_text(path)
+    dst = Path(path) / CARD
+    tmp = dst.with_suffix(".md.tmp")
+    tmp.write_text(text)
+    tmp.replace(dst)
+    return dst
+

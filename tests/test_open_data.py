@@ -1,0 +1,293 @@
+"""Stores that read themselves (issue 14): xarray opens every kind of store and decodes what svgen's own readers
+read; renders stores record the held-out split that training uses; every finished store carries a dataset card
+(`svgen card`); the README's xarray example runs as written."""
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+import yaml
+import zarr
+
+from import_fixtures import bumpy_normals, height_field, matsynth
+from test_bad_input import call
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+PRESETS = ("paint/glossy_red", "wood/oak_planks", "metal/brushed_steel", "plastic/glossy_blue")
+#: 16-bit codes: svgen decodes in float32 (code / 65535), xarray in float64 (code * scale_factor); they differ by
+#: float32 rounding, < 1e-7 on values in [0, 1].
+F32 = 1e-6
+#: a stored normal is (n + 1) / 2 rounded to 1/65535: each decoded component is within 1/65535 of the unit vector's,
+#: so |n| is within 3e-5 of 1 and svgen's renormalisation moves a component by less than 5e-5.
+NORMAL_RENORM = 5e-5
+
+
+@pytest.fixture(scope="module")
+def stores(tmp_path_factory):
+    """Every kind of store, made by the real CLI: variants, blends, stress, renders, an imported variants store and
+    an imported renders store (MatSynth folders written here)."""
+    from pipeline.cli import cli
+
+    d = tmp_path_factory.mktemp("open_data")
+    sel = [a for p in PRESETS for a in ("--preset", p)]
+    runs = [["sample", d / "variants.zarr", "--config-preset", "tiny", "--per-preset", "1", "--chunk", "2",
+             "--workers", "0", *sel],
+            ["blend", d / "variants.zarr", d / "blends.zarr", "--config-preset", "tiny", "--count", "3", "--chunk",
+             "2", "--workers", "0"],
+            ["stress", d / "stress.zarr", "--config-preset", "tiny", "--per-category", "1", "--category",
+             "highlight_edge", "--category", "print_pattern", "--size", "64", "--workers", "0"],
+            ["render", d / "variants.zarr", d / "blends.zarr", d / "renders.zarr", "--config-preset", "tiny",
+             "--views", "2", "--res", "16", "--chunk", "2", "--workers", "0"]]
+    rng = np.random.default_rng(4)
+    for k in range(2):
+        matsynth(d / "src", f"M{k}", 16, rng.random((16, 16, 3)), rng.random((16, 16)), height_field(16)[0])
+    runs += [["import", d / "src", d / "imported.zarr", "--size", "16", "--workers", "0"]]
+    for args in runs:
+        code, err = call(cli, "svgen", args)
+        assert code == 0, (args[0], err)
+    return d
+
+
+def _svbrdf_kinds():
+    return ["variants", "blends", "stress", "imported"]
+
+
+@pytest.mark.parametrize("name", _svbrdf_kinds())
+def test_xarray_decodes_svbrdf_stores_as_svgen_reads_them(stores, name):
+    from pipeline.store import verify_store
+    from pipeline.svbrdf_store import SVBRDFStore
+
+    path = stores / f"{name}.zarr"
+    st = SVBRDFStore(path)
+    ds = xr.open_zarr(path)
+    assert ds.sizes["sample"] == len(st)
+    for var in ds.data_vars.values():
+        assert var.dims[0] == "sample" and var.attrs.get("long_name"), var.name
+    for i in range(len(st)):
+        m = st.maps(i)
+        for k in ("diffuse", "specular", "roughness"):
+            np.testing.assert_allclose(ds[k][i].values, getattr(m, k), rtol=0, atol=F32, err_msg=k)
+        n = ds["normal"][i].values
+        np.testing.assert_allclose(n, m.normal, rtol=0, atol=NORMAL_RENORM)
+        np.testing.assert_allclose(n / np.linalg.norm(n, axis=-1, keepdims=True), m.normal, rtol=0, atol=F32)
+        assert int(ds["seed"][i]) == st.source(i)["seed"]
+    assert ds["diffuse"].attrs["units"] == "1" and "linear" in ds["diffuse"].attrs["colour_space"]
+    assert verify_store(path) > 0  # metadata gained attributes; the chunk bytes still match their manifest
+
+
+def test_xarray_decodes_renders_as_svgen_reads_them(stores):
+    import colour
+
+    from pipeline.render.store import RendersReader
+
+    path = stores / "renders.zarr"
+    r = RendersReader(path)
+    ds = xr.open_zarr(path)
+    assert ds.sizes["sample"] == r.n_svbrdf and ds.sizes["view_index"] == r.views
+    # the image is NOT linearly encoded: no scale_factor, its transfer function named instead
+    assert ds["image"].dtype == np.uint8 and "scale_factor" not in ds["image"].encoding
+    assert ds["image"].attrs["transfer_function"].startswith("sRGB")
+    fields = ds["view"].attrs["fields"]
+    units = ds["view"].attrs["field_units"]
+    assert units["rotation"] == "radian" and "world unit" in units["light_x"] and "tiles" in units["zoom"]
+    for i in range(len(r)):
+        s, v = divmod(i, r.views)
+        # colour-science in float64 against svgen's float32 table of the same curve
+        img = colour.cctf_decoding(ds["image"][s, v].values / 255.0, "sRGB")
+        np.testing.assert_allclose(img, r.image(i), rtol=0, atol=F32)
+        row = dict(zip(fields, ds["view"][s, v].values.tolist()))
+        assert row == {k: float(x) for k, x in r.view_params(i).as_dict().items()}
+    base = r.base_maps(1)
+    np.testing.assert_allclose(ds["diffuse"][1].values, base.diffuse, rtol=0, atol=F32)
+    np.testing.assert_allclose(ds["normal"][1].values, base.normal, rtol=0, atol=NORMAL_RENORM)
+
+
+def test_imported_renders_store_opens_with_xarray(stores, tmp_path):
+    """`svgen import --as renders` (the 2018 strips) writes a renders store: xarray opens it too."""
+    from import_fixtures import png8
+    from pipeline.cli import cli
+    from pipeline.render.store import RendersReader
+
+    t, rng = 16, np.random.default_rng(5)
+    tiles = [rng.random((t, t, 3)), (bumpy_normals(t, rng) + 1) / 2, rng.random((t, t, 3)),
+             np.repeat(rng.random((t, t, 1)), 3, -1), rng.random((t, t, 3)) * 0.5]
+    (tmp_path / "strips").mkdir()
+    png8(tmp_path / "strips" / "0001;x.png", np.concatenate(tiles, 1))
+    code, err = call(cli, "svgen", ["import", tmp_path / "strips", tmp_path / "r.zarr", "--layout", "deschaintre",
+                                    "--as", "renders", "--size", str(t), "--workers", "0"])
+    assert code == 0, err
+    ds = xr.open_zarr(tmp_path / "r.zarr")
+    import colour
+
+    img = colour.cctf_decoding(ds["image"][0, 0].values / 255.0, "sRGB")
+    np.testing.assert_allclose(img, RendersReader(tmp_path / "r.zarr").image(0), rtol=0, atol=F32)
+    assert (tmp_path / "r.zarr" / "README.md").exists()
+
+
+def test_every_array_has_dimension_names_and_the_store_metadata_only_changed(stores):
+    """dimension_names and attributes live in zarr.json; chunk files are what the manifest lists."""
+    for name in ("variants", "blends", "stress", "renders", "imported"):
+        g = zarr.open_group(stores / f"{name}.zarr", mode="r")
+        for arr_name, arr in g.arrays():
+            dims = arr.metadata.dimension_names
+            assert dims is not None and len(dims) == arr.ndim and dims[0] == "sample", (name, arr_name)
+
+
+# -- the held-out split -------------------------------------------------------------------------------------------
+def test_the_stored_split_equals_the_computed_one(stores):
+    from pipeline.render.store import RendersReader
+    from svcore.split import DEFAULT_HOLDOUT, DEFAULT_SEED, held_out_names
+    from train.data import split_by_source
+
+    r = RendersReader(stores / "renders.zarr")
+    rec = r.stored_split()
+    assert rec is not None and rec["holdout"] == DEFAULT_HOLDOUT and rec["seed"] == DEFAULT_SEED
+    ids = r.source_presets()
+    assert rec["test_materials"] == held_out_names(ids, DEFAULT_HOLDOUT, DEFAULT_SEED)
+    stored = split_by_source(r, DEFAULT_HOLDOUT, DEFAULT_SEED)
+    r.stored_split = lambda: None  # what an older store without the record gives
+    computed = split_by_source(r, DEFAULT_HOLDOUT, DEFAULT_SEED)
+    for a, b in zip(stored, computed):
+        np.testing.assert_array_equal(a, b)
+    assert rec["counts"]["test"] * r.views == len(stored[1]) and rec["counts"]["train"] * r.views == len(stored[0])
+
+
+def _with_split(src: Path, dst: Path, test_materials: list[str]) -> Path:
+    """A copy of a renders store whose recorded split holds out other materials (attributes only)."""
+    shutil.copytree(src, dst)
+    g = zarr.open_group(dst, mode="r+")
+    g.attrs["split"] = {**g.attrs["split"], "test_materials": test_materials}
+    zarr.consolidate_metadata(dst)
+    return dst
+
+
+@pytest.mark.filterwarnings("ignore:Object at")
+def test_training_and_eval_read_the_stored_split(stores, tmp_path):
+    """The split comes from the store, not from the code, when the holdout and seed match the record; other
+    values compute it."""
+    from pipeline.render.store import RendersReader
+    from train.data import split_by_source
+
+    orig = RendersReader(stores / "renders.zarr").stored_split()["test_materials"]
+    other = [p for p in PRESETS if p not in orig][:1]
+    r = RendersReader(_with_split(stores / "renders.zarr", tmp_path / "r.zarr", other))
+    _, test = split_by_source(r, 0.1, 0)
+    assert {p for i in test for p in r.source_presets()[i]} == set(other)
+    _, test_other_seed = split_by_source(r, 0.1, 1)  # not the recorded split: computed
+    from svcore.split import held_out_names
+
+    assert {p for i in test_other_seed for p in r.source_presets()[i]} <= \
+        set(held_out_names(r.source_presets(), 0.1, 1))
+
+
+# -- versions ------------------------------------------------------------------------------------------------------
+def test_stores_record_the_svgen_version_from_git(stores):
+    from svcore.versions import svgen_version
+
+    root = Path(__file__).resolve().parents[1]
+    want = svgen_version()
+    if (root / ".git").exists():
+        git = subprocess.run(["git", "describe", "--tags", "--always", "--dirty"], cwd=root, capture_output=True,
+                             text=True).stdout.strip()
+        assert want == git
+    versions = json.loads((stores / "renders.zarr" / "zarr.json").read_text())["attributes"]["svgen"]["versions"]
+    assert versions["svgen"] == want and versions["mitsuba"]
+    scene = json.loads((stores / "renders.zarr" / "zarr.json").read_text())["attributes"]["scene"]
+    assert scene["mitsuba_variant"].startswith(("llvm_ad_", "cuda_ad_")) and "pinhole camera" in scene["description"]
+
+
+# -- the dataset card ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+def test_every_finished_store_has_its_card(stores, name, svgen_cli):
+    from pipeline.card import card_text
+
+    path = stores / f"{name}.zarr"
+    text = (path / "README.md").read_text()
+    assert text == card_text(path)  # generated from the store's own attributes, nothing else
+    front = yaml.safe_load(text.split("---\n")[1])
+    assert front["license"] == "cc-by-4.0" and front["task_categories"]
+    attrs = json.loads((path / "zarr.json").read_text())["attributes"]
+    n = attrs["svgen"]["n"]
+    views = zarr.open_group(path, mode="r")["image"].shape[1] if name == "renders" else 1
+    assert sum(s["num_examples"] for s in front["dataset_info"]["splits"]) <= n * views
+    assert {f["name"] for f in front["dataset_info"]["features"]} == set(attrs["svgen"]["arrays"])
+    for section in ("## What it contains", "## How it was made", "## Intended use", "## Known limits",
+                    "## Licence", "## Citation", "Deschaintre"):
+        assert section in text, section
+    if "seed" in attrs["config"]:
+        assert f"seed: {attrs['config']['seed']}" in text  # the parameters as a params.yaml section
+    if name == "renders":
+        assert "## Pairing an image with its maps" in text and "ss = max(1, ceil(zoom * B / R))" in text
+    code, out = svgen_cli("card", path)
+    assert code == 0 and out == text
+
+
+def test_card_write_regenerates_it(stores, tmp_path, svgen_cli):
+    from pipeline.store import verify_store
+
+    path = tmp_path / "v.zarr"
+    shutil.copytree(stores / "variants.zarr", path)
+    want = (path / "README.md").read_text()
+    (path / "README.md").unlink()
+    code, out = svgen_cli("card", path, "--write")
+    assert code == 0 and "README.md" in out
+    assert (path / "README.md").read_text() == want
+    verify_store(path)  # the card is beside the chunks, not among them
+
+
+def test_a_partial_store_has_no_card(tmp_path, svgen_cli):
+    """The card is written at finalize, inside the store being finished: an interrupted run leaves none."""
+    env = {"SVGEN_TEST_KILL_AT": "chunk"}
+    import os
+    import sys
+
+    r = subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()", "sample", str(tmp_path / "v.zarr"),
+                        "--config-preset", "tiny", "--per-preset", "1", "--chunk", "1", "--workers", "0",
+                        "--preset", PRESETS[0], "--preset", PRESETS[1]], env={**os.environ, **env},
+                       capture_output=True, text=True)
+    assert r.returncode != 0
+    partial = tmp_path / "v.zarr.partial"
+    assert partial.exists() and not (partial / "README.md").exists()
+    code, err = svgen_cli("card", tmp_path / "v.zarr")
+    assert code == 2 and err.count("\n") == 1 and "incomplete" in err, err
+
+
+# -- the README example ----------------------------------------------------------------------------------------------
+def readme_example() -> str:
+    """The python block after the ``xarray-example`` marker of README.md."""
+    text = README.read_text()
+    m = re.search(r"<!-- xarray-example:.*?-->\s*```python\n(.*?)```", text, re.S)
+    assert m, "README.md lost its xarray example"
+    return m.group(1)
+
+
+def test_the_readme_example_runs_and_reads_what_svgen_reads(stores):
+    from pipeline.render.store import RendersReader
+
+    code = readme_example()
+    assert len(code.strip().splitlines()) <= 6 and '"data/renders.zarr"' in code
+    ns: dict = {}
+    exec(code.replace('"data/renders.zarr"', repr(str(stores / "renders.zarr"))), ns)
+    r = RendersReader(stores / "renders.zarr")
+    np.testing.assert_allclose(ns["image"], r.image(0), rtol=0, atol=F32)
+    np.testing.assert_allclose(ns["diffuse"], r.base_maps(0).diffuse, rtol=0, atol=F32)
+    assert ns["test"] == set(r.stored_split()["test_materials"])
+
+
+def test_card_of_a_missing_or_foreign_store_is_one_line_exit_2(tmp_path, svgen_cli):
+    g = zarr.open_group(tmp_path / "foreign.zarr", mode="w", zarr_format=3)
+    g.create_array("x", shape=(2,), dtype="f4")
+    zarr.consolidate_metadata(tmp_path / "foreign.zarr")
+    (tmp_path / "plain").mkdir()
+    for target, words in (("nothing.zarr", "no store at"), ("foreign.zarr", "not an svgen store"),
+                          ("plain", "not a zarr v3 store")):
+        for extra in ((), ("--write",)):
+            code, err = svgen_cli("card", tmp_path / target, *extra)
+            assert code == 2 and err.count("\n") == 1 and words in err and "Traceback" not in err, err
+    assert not (tmp_path / "plain" / "README.md").exists() and not (tmp_path / "foreign.zarr" / "README.md").exists()
