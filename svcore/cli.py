@@ -9,9 +9,6 @@ from __future__ import annotations
 
 import errno
 import os
-import subprocess
-from functools import lru_cache
-from pathlib import Path
 
 import click
 
@@ -28,24 +25,12 @@ def one_line(msg: object) -> str:
     return " ".join(str(msg).split())
 
 
-@lru_cache(maxsize=1)
 def version() -> str:
-    """``git describe`` of the source tree when it is a git checkout, else the installed package version."""
-    root = Path(__file__).resolve().parents[1]
-    if (root / ".git").exists():
-        try:
-            r = subprocess.run(["git", "describe", "--tags", "--always", "--dirty"], cwd=root, capture_output=True,
-                               text=True, timeout=5)
-            if r.returncode == 0 and r.stdout.strip():
-                return r.stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            pass
-    import importlib.metadata as md
+    """``git describe`` of the source tree when it is a git checkout, else the installed package version
+    (:func:`svcore.versions.code_version`)."""
+    from .versions import code_version
 
-    try:
-        return md.version("svgen")
-    except md.PackageNotFoundError:
-        return "unknown"
+    return code_version()
 
 
 def version_option(prog: str):
