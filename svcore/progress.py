@@ -15,8 +15,9 @@ from tqdm import tqdm
 NO_PROGRESS_ENV, PROGRESS_ENV = "SVGEN_NO_PROGRESS", "SVGEN_PROGRESS"
 
 
-def _env_on(name: str) -> bool:
-    return os.environ.get(name, "").strip().lower() not in ("", "0", "false", "no")
+def _on(value: str | None) -> bool:
+    """An environment switch's value: set and not 0/false/no."""
+    return (value or "").strip().lower() not in ("", "0", "false", "no")
 
 
 def progress(total: int, desc: str, unit: str = "it", initial: int = 0, disable: bool | None = None) -> tqdm:
@@ -31,9 +32,9 @@ def progress(total: int, desc: str, unit: str = "it", initial: int = 0, disable:
             tqdm's detection (on only when stderr is a terminal).
     """
     if disable is None:
-        if _env_on(NO_PROGRESS_ENV):
+        if _on(os.environ.get(NO_PROGRESS_ENV)):
             disable = True
-        elif _env_on(PROGRESS_ENV):
+        elif _on(os.environ.get(PROGRESS_ENV)):
             disable = False
     return tqdm(total=total, desc=desc, unit=unit, initial=initial, disable=disable, file=sys.stderr,
                 dynamic_ncols=True, smoothing=0.1)
