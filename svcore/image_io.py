@@ -153,7 +153,9 @@ def read_ldr(path: str | Path) -> np.ndarray:
                                 "read as sRGB); save it as 8-bit sRGB or 16-bit sRGB to silence this", path)
             else:
                 im = ImageOps.exif_transpose(im)
-                if icc:
+                if icc:  # LittleCMS converts colour or grey pixels: palette and alpha dropped first
+                    im = im.convert({"LA": "L", "La": "L"}.get(im.mode, "RGB")) if im.mode not in (
+                        "RGB", "L", "CMYK") else im
                     im = _to_srgb(im, icc, path)
                 a = np.asarray(im.convert("RGB"), np.float32) / 255.0
     except (OSError, UnidentifiedImageError, SyntaxError) as e:
