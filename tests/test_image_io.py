@@ -148,3 +148,17 @@ def test_16bit_png_with_a_profile_warns(tmp_path, caplog):
         got = np.round(read_ldr(tmp_path / "p3_16.png") * 65535).astype(np.int64)
     np.testing.assert_array_equal(got, codes)
     assert any("16-bit" in r.getMessage() and "ICC" in r.getMessage() for r in caplog.records)
+
+
+def test_svtrain_predict_reads_photos_upright(tmp_path):
+    """train/predict.py's reader goes through read_ldr: the rotated JPEG reaches the network upright (and linear)."""
+    from svcore.image_io import srgb_decode
+    from train.predict import read_photo
+
+    upright = _asymmetric(48, 80)
+    Image.fromarray(np.ascontiguousarray(np.rot90(upright, 1))).save(tmp_path / "p.jpg", quality=98, subsampling=0,
+                                                                      exif=_exif(6))
+    got = read_photo(tmp_path / "p.jpg")
+    assert got.shape == (48, 80, 3)
+    want = srgb_decode(upright / 255.0)
+    assert np.abs(got - want).mean() < 2 / 255, _dump("predict-exif6", got, want)
