@@ -66,6 +66,9 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
     if not log.isEnabledFor(logging.DEBUG):  # distributed sets its loggers to INFO when imported
         for name in ("distributed", "distributed.nanny", "distributed.scheduler", "distributed.core"):
             logging.getLogger(name).setLevel(logging.WARNING)
+        # closing the cluster after a failed task on a loaded machine: "Worker process still alive after 4.0
+        # seconds, killing" would be a second line under svgen's one-line error (seen in test_faults under load)
+        logging.getLogger("distributed.nanny").setLevel(logging.ERROR)
 
     if scheduler_address:
         try:
