@@ -17,6 +17,8 @@ from .registry import classes, presets
 
 #: the preview's flash offset: a little off the lens, so the highlight is not dead centre.
 PREVIEW_LIGHT_XY = (0.15, 0.15)
+#: the contact sheet's column headers, one per tile of :func:`preview_tiles`.
+TILE_NAMES = ("normal", "diffuse", "roughness", "specular", "render")
 
 
 def rows(cls: str | None = None) -> list[tuple[str, str, str, float, float, float]]:
@@ -100,7 +102,8 @@ def _down(img: np.ndarray, f: int) -> np.ndarray:
 
 
 def contact_sheet(path, tile: int = 80, per_row: int = 3, seed: int = 0, cls: str | None = None) -> Path:
-    """Write a PNG with one block per preset: its name, then 5 tiles (see :func:`preview_tiles`).
+    """Write an RGB PNG with a header row naming the tiles' columns, then one block per preset: its name, then
+    5 tiles (see :func:`preview_tiles`).
 
     Args:
         path: output .png path.
@@ -117,14 +120,19 @@ def contact_sheet(path, tile: int = 80, per_row: int = 3, seed: int = 0, cls: st
     bh = label + tile
     nrow = -(-len(ps) // per_row)
     W = per_row * bw + (per_row + 1) * pad
-    H = nrow * bh + (nrow + 1) * pad
+    H = label + nrow * bh + (nrow + 2) * pad
     sheet = Image.new("RGB", (W, H), (40, 40, 40))
     draw = ImageDraw.Draw(sheet)
+    for k in range(per_row):  # column headers above every block column
+        for j, name in enumerate(TILE_NAMES):
+            x = pad + k * (bw + pad) + j * (tile + 2) + tile // 2
+            draw.text((x, pad + label // 2), name, fill=(255, 220, 120), anchor="mm")
+    top = label + pad
     gen = max(64, 2 * tile)
     for i, p in enumerate(ps):
         m = p.generate(None, gen, seed)
         x0 = pad + (i % per_row) * (bw + pad)
-        y0 = pad + (i // per_row) * (bh + pad)
+        y0 = top + pad + (i // per_row) * (bh + pad)
         draw.text((x0, y0), p.name, fill=(230, 230, 230))
         for j, im in enumerate(preview_tiles(m)):
             im = _down(im, gen // tile) if gen // tile > 1 else im
@@ -132,6 +140,6 @@ def contact_sheet(path, tile: int = 80, per_row: int = 3, seed: int = 0, cls: st
             sheet.paste(a.resize((tile, tile)), (x0 + j * (tile + 2), y0 + label))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    # an adaptive palette keeps the sheet small enough for the repository (< 2 MB) at little visible cost
-    sheet.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
+    # RGB, not a palette: 256 colours banded the smooth renderings and hid the colour differences the sheet is for
+    sheet.save(path, optimize=True, compress_level=9)
     return path

@@ -3,22 +3,42 @@
 Every task is a pure function of its chunk id (and the stage's config), writes
 its own chunk and returns how many units it produced; so the store's bytes do
 not depend on the number of workers or on where they run.
+
+Retries: a task that raises is run again, up to :data:`RETRIES` times, which is safe because a task is idempotent:
+it rewrites its whole chunk (zarr writes each chunk file to a temporary name and renames it) and only then writes
+the chunk's done-record (hashes of the chunk files, renamed into place too), so a task stopped anywhere leaves
+either no record or the record of a complete chunk, and its rerun writes the same bytes again. Failures that will
+not go away by themselves (svgen's own SvgenError, a full disk, a read-only or forbidden path) are not retried:
+the task hands them back as a value and the client raises them at once. A worker *process* that dies mid-task is a
+separate mechanism: the scheduler reruns its tasks elsewhere (``distributed.scheduler.allowed-failures``, 3).
+
+Threads: drjit and numpy get a thread budget per worker process, computed *on that worker* from its own CPUs
+(``os.sched_getaffinity``) divided by the worker processes on its host, not from the calling machine's core count
+(wrong on a remote cluster whose machines differ from the client's).
 """
 from __future__ import annotations
 
+import errno
+import functools
 import logging
 import os
 import warnings
 from contextlib import contextmanager
 from typing import Callable, Iterable
 
-from svcore.errors import ConfigError
+from svcore.errors import ConfigError, SvgenError
 from svcore.log import get_logger
 from svcore.progress import progress
 
 log = get_logger(__name__)
 
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
+#: times dask reruns a chunk task that raised: two, so that a transient failure (a reset connection or a stale
+#: handle on a network file system, a killed thread) may strike twice in one chunk before the stage fails, while a
+#: real bug costs at most three runs of one chunk before the user sees it.
+RETRIES = 2
+#: OS errors that a rerun cannot fix: reported at once, not retried.
+PERMANENT_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM})
 
 
 def resolve_scheduler(address: str | None) -> str | None:
@@ -46,6 +66,9 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
     if not log.isEnabledFor(logging.DEBUG):  # distributed sets its loggers to INFO when imported
         for name in ("distributed", "distributed.nanny", "distributed.scheduler", "distributed.core"):
             logging.getLogger(name).setLevel(logging.WARNING)
+        # closing the cluster after a failed task on a loaded machine: "Worker process still alive after 4.0
+        # seconds, killing" would be a second line under svgen's one-line error (seen in test_faults under load)
+        logging.getLogger("distributed.nanny").setLevel(logging.ERROR)
 
     if scheduler_address:
         try:
@@ -75,14 +98,57 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
             cluster.close()
 
 
-def threads_per_worker(client) -> int:
-    """CPU threads each worker may give drjit/numpy: cores // workers (at least 1).
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask: a container's or ``taskset``'s limit), else the count."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        return os.cpu_count() or 1
 
-    drjit has its own thread pool; without this, N worker processes would each start
-    ``cores`` threads and oversubscribe the machine.
+
+def workers_per_host(client) -> dict[str, int]:
+    """host -> worker processes the scheduler knows on it."""
+    hosts: dict[str, int] = {}
+    for w in client.scheduler_info(n_workers=-1).get("workers", {}).values():
+        hosts[w["host"]] = hosts.get(w["host"], 0) + 1
+    return hosts
+
+
+def worker_threads(hosts: dict[str, int]) -> int:
+    """In a worker: its thread budget for drjit/numpy, its host's usable CPUs // worker processes on that host.
+
+    drjit has its own thread pool; without this, N worker processes on one machine would each start ``cores``
+    threads and oversubscribe it. A worker that joined after the task was sent (a host not in ``hosts``) counts
+    as alone on its host.
     """
-    n = max(1, len(client.scheduler_info().get("workers", {})))
-    return max(1, (os.cpu_count() or 1) // n)
+    from distributed import get_worker
+    from distributed.comm import get_address_host
+
+    return max(1, usable_cpus() // max(1, hosts.get(get_address_host(get_worker().address), 1)))
+
+
+def threads_per_worker(client) -> int:
+    """The budget :func:`worker_threads` gives on the first worker (benchmarks record it)."""
+    return next(iter(client.run(worker_threads, workers_per_host(client)).values()), 1)
+
+
+class _Permanent:
+    """An exception a task hands back instead of raising it, so that dask does not retry it."""
+
+    def __init__(self, error: BaseException):
+        self.error = error
+
+
+def _on_worker(fn: Callable[[int, int], int], hosts: dict[str, int], c: int):
+    """Run chunk task ``fn(c, threads)`` in a worker with that worker's own thread budget."""
+    try:
+        return fn(c, worker_threads(hosts))
+    except SvgenError as e:
+        return _Permanent(e)
+    except OSError as e:
+        if e.errno in PERMANENT_ERRNOS:
+            return _Permanent(e)
+        raise
 
 
 def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers: int = 2, scheduler_address: str | None = None,
@@ -91,8 +157,9 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
     """Run ``fn(chunk_id, threads) -> units`` for every chunk on dask and show a units/s progress bar.
 
     Args:
-        fn: picklable function; runs in the workers with the thread budget of one worker (cores // workers);
-            returns the number of units (samples, views) written.
+        fn: picklable, idempotent function; runs in the workers with the thread budget of its worker
+            (:func:`worker_threads`); returns the number of units (samples, views) written. A call that raises is
+            retried (:data:`RETRIES`) unless the error is permanent (SvgenError, :data:`PERMANENT_ERRNOS`).
         chunks: chunk ids still to do.
         workers: local processes when no scheduler is given; 0 runs the chunks in this process.
         scheduler_address: a running dask.distributed scheduler (or ``DASK_SCHEDULER_ADDRESS``).
@@ -123,12 +190,14 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
                 bar.update(n)
         return written
     with dask_client(workers, address) as client:
-        threads = threads_per_worker(client)
-        futures = client.map(fn, chunks, [threads] * len(chunks), pure=False)
+        task = functools.partial(_on_worker, fn, workers_per_host(client))
+        futures = client.map(task, chunks, pure=False, retries=RETRIES)
         bar = progress(total=total_units or len(chunks), desc=desc, unit=unit, initial=done_units)
         try:
             for fut in as_completed(futures):
-                n = fut.result()  # re-raises the worker's exception (SvgenError stays an SvgenError)
+                n = fut.result()  # re-raises the worker's exception after the retries
+                if isinstance(n, _Permanent):
+                    raise n.error  # SvgenError stays an SvgenError, ENOSPC an OSError
                 written += n
                 bar.update(n)
         except BaseException:

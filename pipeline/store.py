@@ -365,6 +365,7 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
     g = zarr.open_group(partial, mode="r+")
     for name, arr in data.items():
         g[name][start:start + len(arr)] = arr
+    _fail_once_hook(c)
     # the marker is the chunk's record in the manifest-to-be: size and hash of each array's chunk file, hashed
     # here, once, by the worker that wrote it
     record = {name: _file_record(Path(partial) / name / _chunk_key(g[name], c)) for name in data}
@@ -387,6 +388,15 @@ def _kill_hook(moment: str) -> None:
         import signal
 
         os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _fail_once_hook(c: int) -> None:
+    """Tests make every chunk task fail once, after its data and before its record (the retry must rewrite it):
+    ``SVGEN_TEST_FAIL_ONCE_DIR=<dir>`` (a file per chunk there says it already failed). Unset: does nothing."""
+    d = os.environ.get("SVGEN_TEST_FAIL_ONCE_DIR")
+    if d and not (Path(d) / f"chunk{c}").exists():
+        (Path(d) / f"chunk{c}").touch()
+        raise ConnectionResetError(f"injected transient failure in chunk {c}")
 
 
 def _one_line(e: object) -> str:

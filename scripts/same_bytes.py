@@ -49,7 +49,7 @@ def state_hashes(path: Path) -> dict[str, str]:
     """sha256 of every tensor of a saved model's state dict."""
     import torch
 
-    state = torch.load(path, map_location="cpu", weights_only=False)["model"]
+    state = torch.load(path, map_location="cpu", weights_only=True)["model"]
     return {k: hashlib.sha256(v.detach().contiguous().numpy().tobytes()).hexdigest() for k, v in sorted(state.items())}
 
 

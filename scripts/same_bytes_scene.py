@@ -139,7 +139,7 @@ def fits(tmp: Path) -> dict:
          "--set", "data.synthetic_size=40", "--set", "data.synthetic_materials=4", *common)
     out = {}
     for run in ("fit_store", "fit_synth"):
-        sd = torch.load(tmp / run / "model.pt", weights_only=False)["model"]
+        sd = torch.load(tmp / run / "model.pt", weights_only=True)["model"]
         out[run] = {k: _h(v.numpy()) for k, v in sorted(sd.items())}
     return out
 

@@ -2,14 +2,36 @@
 
 Transfer functions come from colour-science (the sRGB IEC 61966-2-1 curve), never a bare gamma 2.2:
 the original code's users were repeatedly confused about which images were gamma-encoded.
+
+Photos are read as the camera meant them (:func:`read_ldr`): turned upright by their EXIF orientation, 16-bit PNGs
+at 16 bits, and pixels in an embedded ICC profile's space converted to sRGB (LittleCMS through Pillow's ImageCms).
 """
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
 
 from .errors import SvgenError
+from .log import get_logger
+
+log = get_logger(__name__)
+
+#: EXIF tag of the orientation
+ORIENTATION_TAG = 0x0112
+#: EXIF orientation -> the numpy operation on (H, W, ...) that makes the image upright; the same as
+#: ``PIL.ImageOps.exif_transpose`` (tests/test_image_io.py compares them), for arrays Pillow cannot hold (16-bit RGB)
+UPRIGHT = {
+    1: lambda a: a,
+    2: lambda a: a[:, ::-1],                    # mirrored left-right
+    3: lambda a: a[::-1, ::-1],                 # rotated 180
+    4: lambda a: a[::-1],                       # mirrored top-bottom
+    5: lambda a: a.swapaxes(0, 1),              # transposed
+    6: lambda a: np.rot90(a, -1),               # rotated 90 clockwise to be upright
+    7: lambda a: a[::-1, ::-1].swapaxes(0, 1),  # transversed
+    8: lambda a: np.rot90(a, 1),                # rotated 90 counter-clockwise to be upright
+}
 
 
 class ImageError(SvgenError):
@@ -57,24 +79,94 @@ def write_png16(path: str | Path, img: np.ndarray) -> Path:
     return path
 
 
+def _is_16bit(im) -> bool:
+    """Whether a Pillow image holds 16 bits per sample (Pillow opens 16-bit RGB PNGs as 8-bit "RGB")."""
+    if im.mode.startswith("I;16") or im.mode == "I":
+        return True
+    raw = im.tile[0][3] if im.tile else ""
+    raw = raw[0] if isinstance(raw, tuple) else raw
+    return isinstance(raw, str) and raw.endswith(("16", "16B", "16L"))
+
+
+def _read_png16(path: Path) -> np.ndarray:
+    """A 16-bit PNG through pypng as (H, W, C) uint16 (Pillow would reduce 16-bit colour to 8 bits)."""
+    import png
+
+    w, h, rows, meta = png.Reader(filename=str(path)).asDirect()
+    return np.vstack([np.asarray(r, np.uint16) for r in rows]).reshape(h, w, meta["planes"])
+
+
+def _is_srgb(profile) -> bool:
+    """An sRGB profile (by its description: "sRGB IEC61966-2.1", "sRGB built-in"): the values are already sRGB."""
+    from PIL import ImageCms
+
+    return "srgb" in ImageCms.getProfileDescription(profile).lower().replace(" ", "")
+
+
+def _to_srgb(im, icc: bytes, path) -> object:
+    """``im`` converted from its embedded ICC profile to sRGB (an sRGB profile: unchanged); warns and keeps the
+    stored values when LittleCMS cannot convert it."""
+    from PIL import ImageCms
+
+    try:
+        src = ImageCms.ImageCmsProfile(io.BytesIO(icc))
+        if _is_srgb(src):
+            return im
+        return ImageCms.profileToProfile(im, src, ImageCms.createProfile("sRGB"), outputMode="RGB",
+                                         renderingIntent=ImageCms.Intent.RELATIVE_COLORIMETRIC)
+    except (ImageCms.PyCMSError, OSError, ValueError) as e:
+        log.warning("%s: its ICC colour profile cannot be converted to sRGB (%s); values read as sRGB", path,
+                    " ".join(str(e).split()))
+        return im
+
+
+def _srgb_bytes(icc: bytes) -> bool:
+    from PIL import ImageCms
+
+    try:
+        return _is_srgb(ImageCms.ImageCmsProfile(io.BytesIO(icc)))
+    except (ImageCms.PyCMSError, OSError, ValueError):
+        return False
+
+
 def read_ldr(path: str | Path) -> np.ndarray:
     """Read a PNG/JPEG as (H, W, 3) float32 in [0, 1], still encoded as stored (no transfer function applied).
+
+    The image is turned upright by its EXIF orientation; a 16-bit PNG keeps its 16 bits; pixels in another colour
+    space than sRGB (an embedded ICC profile: Display P3, Adobe RGB, a camera's) are converted to sRGB, or, for
+    16-bit images and profiles LittleCMS cannot use, left as stored with a one-line warning.
 
     Raises:
         ImageError: unreadable file or not an RGB/grey image.
     """
-    from PIL import Image, UnidentifiedImageError
+    from PIL import Image, ImageOps, UnidentifiedImageError
 
     try:
         with Image.open(path) as im:
-            bits = 16 if im.mode in ("I;16", "I;16B", "I") else 8
-            a = np.asarray(im.convert("RGB") if bits == 8 else im, np.float32)
-    except (OSError, UnidentifiedImageError) as e:
-        raise ImageError(f"cannot read image {path}: {e}") from None
-    a = a / (65535.0 if bits == 16 else 255.0)
+            icc = im.info.get("icc_profile")
+            if im.format == "PNG" and _is_16bit(im):
+                orientation = im.getexif().get(ORIENTATION_TAG, 1)
+                a = _read_png16(Path(path)).astype(np.float32) / 65535.0
+                a = UPRIGHT.get(orientation, UPRIGHT[1])(a)
+                if icc and not _srgb_bytes(icc):
+                    log.warning("%s: a 16-bit image with an ICC colour profile: the profile is not applied (values "
+                                "read as sRGB); save it as 8-bit sRGB or 16-bit sRGB to silence this", path)
+            else:
+                im = ImageOps.exif_transpose(im)
+                if icc:  # LittleCMS converts colour or grey pixels: palette and alpha dropped first
+                    im = im.convert({"LA": "L", "La": "L"}.get(im.mode, "RGB")) if im.mode not in (
+                        "RGB", "L", "CMYK") else im
+                    im = _to_srgb(im, icc, path)
+                a = np.asarray(im.convert("RGB"), np.float32) / 255.0
+    except (OSError, UnidentifiedImageError, SyntaxError) as e:
+        raise ImageError(f"cannot read image {path}: {' '.join(str(e).split())}") from None
     if a.ndim == 2:
-        a = np.repeat(a[..., None], 3, axis=-1)
-    return a.astype(np.float32)
+        a = a[..., None]
+    if a.shape[-1] in (2, 4):  # drop alpha
+        a = a[..., :-1]
+    if a.shape[-1] == 1:
+        a = np.repeat(a, 3, axis=-1)
+    return np.ascontiguousarray(a, dtype=np.float32)
 
 
 def write_exr(path: str | Path, img: np.ndarray) -> Path:

@@ -13,7 +13,8 @@ LIBRARIES = ("svgen", "numpy", "scipy", "zarr", "dask", "mitsuba", "drjit", "col
 def svgen_version() -> str:
     """The version of the svgen code that runs: ``git describe --tags --always --dirty`` of its source tree when
     that is a git checkout (a tag, commits since it, the commit, ``-dirty`` for uncommitted changes), else the
-    installed package's version, else ``"unknown"``."""
+    installed package's version (setuptools-scm derives it from the same tags at build time: ``0.2.1.dev3+gabc1234``;
+    ``0.1.0.dev0`` when built without git metadata), else ``"unknown"``."""
     root = Path(__file__).resolve().parents[1]
     if (root / ".git").exists():
         try:

@@ -59,7 +59,26 @@ def world(tmp_path_factory):
     (d / "empty").mkdir()
     code, err = call(svtrain, "svtrain", ["fit", "--out", d / "run", "--iterations", 1, *SMALL])
     assert code == 0, err
+    Image.fromarray(np.full((64, 64, 3), 128, np.uint8)).save(d / "ok.png")
+    # checkpoints that carry a pickled object whose unpickling runs code (creates the file d / PWNED)
+    evil = {**torch.load(d / "run" / "checkpoint.pt", weights_only=True), "note": RunsCode(d / PWNED)}
+    torch.save(evil, d / "evil.pt")
+    (d / "evil_run").mkdir()
+    torch.save(evil, d / "evil_run" / "checkpoint.pt")
     return d
+
+
+PWNED = "pwned-by-checkpoint"
+
+
+class RunsCode:
+    """Unpickling an instance calls ``open(path, "w")``: a stand-in for any code a downloaded checkpoint can run."""
+
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __reduce__(self):
+        return open, (self.path, "w")
 
 
 S, T = (cli, "svgen"), (svtrain, "svtrain")
@@ -206,6 +225,12 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
                                          "--out", "{d}/o.zarr"], "not a positive multiple of the network's stride 8"),
     ("predict: folder without photos", T, ["predict", "{d}/empty", "--checkpoint", "{d}/run", "--out", "{d}/o.zarr"],
      "holds no PNG, JPEG or EXR photos"),
+    ("predict: checkpoint with a pickled object", T, ["predict", "{d}/ok.png", "--checkpoint", "{d}/evil.pt",
+                                                      "--out", "{d}/o.zarr"], "refused (loading it could run"),
+    ("eval: checkpoint with a pickled object", T, ["eval", "--checkpoint", "{d}/evil.pt", "--out", "{d}/o.zarr"],
+     "refused (loading it could run"),
+    ("fit --resume: checkpoint with a pickled object", T, ["fit", "--out", "{d}/evil_run", *SMALL],
+     "refused (loading it could run"),
     ("predict: unknown input space", T, ["predict", "{d}/thin.png", "--checkpoint", "{d}/run", "--input-space",
                                          "gamma", "--out", "{d}/o.zarr"], "Invalid value"),
 ]
@@ -221,6 +246,19 @@ def test_bad_input_is_one_line_nonzero_and_writes_nothing(case, world):
     assert err.startswith(f"{prog}: ") and expect in err, err
     assert sorted(p.name for p in world.iterdir()) == before, "a failed command left files behind"
     assert list((world / "exists.zarr").iterdir()) == []
+
+
+def test_a_checkpoint_that_runs_code_is_refused_before_it_runs(world, tmp_path):
+    """The checkpoints in the world would create PWNED if unpickled freely (checked on a copy here); through
+    svtrain they are refused with exit 2 and the file is never written."""
+    torch.load(world / "evil.pt", weights_only=False)  # the guarantee's premise: a free load runs the code
+    assert (world / PWNED).exists()
+    (world / PWNED).unlink()
+    for args in (["predict", world / "ok.png", "--checkpoint", world / "evil.pt", "--out", tmp_path / "p"],
+                 ["fit", "--out", world / "evil_run", *SMALL]):
+        code, err = call(svtrain, "svtrain", args)
+        assert code == 2 and "refused" in err and err.count("\n") == 1, err
+        assert not (world / PWNED).exists()
 
 
 def test_the_table_covers_every_command_and_twenty_kinds():

@@ -40,8 +40,12 @@ def test_writes_docs_and_sheet(svgen_cli, tmp_path):
     assert code == 0, out
     md = docs.read_text()
     assert "## plastic" in md and "plastic/glossy_blue" in md and "`roughness`" in md
-    im = np.asarray(Image.open(sheet).convert("RGB"))
+    with Image.open(sheet) as f:
+        assert f.mode == "RGB"  # not a palette image
+        im = np.asarray(f)
     n = len(presets("plastic"))
+    header = im[:19]  # the column-header band (pad 6 + label 13) holds text brighter than the background
+    assert (header.max(-1) > 150).sum() > 100, "no column headers"
     assert im.shape[1] >= 3 * 5 * 48 and im.shape[0] >= -(-n // 3) * 48
     assert im.std() > 10  # not blank
 

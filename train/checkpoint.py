@@ -1,10 +1,19 @@
-"""Checkpoint files: atomic writes, and loading a trained model with one-line errors."""
+"""Checkpoint files: atomic writes, and loading a trained model with one-line errors.
+
+Checkpoints hold only plain data (dicts, lists, tuples, strings, numbers, booleans, None) and tensors, so they load
+with ``torch.load(weights_only=True)``: torch's restricted unpickler, which refuses any other object instead of
+running the code a pickled object can carry (a downloaded checkpoint is untrusted input). :func:`save` converts
+numpy values to plain ones and refuses anything else, so a checkpoint this code writes can always be read back.
+Checkpoints written before this rule already held only such values (RNG states are tensors) and load unchanged.
+"""
 from __future__ import annotations
 
 import os
+import pickle
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from svcore.errors import SvgenError
@@ -15,16 +24,43 @@ from .net import SVBRDFNet
 FORMAT = "svtrain-checkpoint/1"
 
 
+def plain(value: Any, where: str = "state") -> Any:
+    """``value`` with numpy scalars/arrays turned into Python numbers/tensors, checked to hold nothing that a
+    ``weights_only`` load refuses.
+
+    Raises:
+        TypeError: another type (a programming error: the checkpoint could not be loaded back).
+    """
+    if value is None or isinstance(value, (bool, int, float, str, torch.Tensor, torch.dtype, torch.device)):
+        return value
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return torch.from_numpy(np.ascontiguousarray(value))
+    if isinstance(value, dict):
+        return {k: plain(v, f"{where}[{k!r}]") for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(plain(v, f"{where}[{i}]") for i, v in enumerate(value))
+    raise TypeError(f"checkpoint {where} is a {type(value).__name__}: store plain data or tensors")
+
+
 def save(path: str | Path, state: dict[str, Any]) -> None:
-    """Write ``state`` to ``path`` atomically (a kill mid-write leaves the previous file intact)."""
+    """Write ``state`` to ``path`` atomically (a kill mid-write leaves the previous file intact).
+
+    ``state`` holds plain data and tensors only (:func:`plain`), so that :func:`load` can read it safely.
+    """
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    torch.save({"format": FORMAT, **state}, tmp)
+    torch.save(plain({"format": FORMAT, **state}), tmp)
     os.replace(tmp, path)
 
 
 def load(path: str | Path) -> dict[str, Any]:
-    """Read a checkpoint; missing or foreign files raise :class:`SvgenError`."""
+    """Read a checkpoint (``weights_only``: tensors and plain data, nothing that runs code).
+
+    Raises:
+        SvgenError: missing, unreadable or foreign file, or one that carries other pickled objects.
+    """
     path = Path(path)
     if path.is_dir():
         for name in ("model.pt", "checkpoint.pt"):
@@ -34,7 +70,10 @@ def load(path: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise SvgenError(f"checkpoint {str(path)!r} does not exist (train one with `svtrain fit`)")
     try:
-        state = torch.load(path, map_location="cpu", weights_only=False)
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError:  # torch's restricted unpickler met a class or a function: it never ran it
+        raise SvgenError(f"checkpoint {str(path)!r} holds pickled objects other than tensors and plain data; "
+                         f"refused (loading it could run arbitrary code)") from None
     except Exception as e:  # torch raises many types for truncated/foreign files
         raise SvgenError(f"checkpoint {str(path)!r} is unreadable: {type(e).__name__}") from None
     if not isinstance(state, dict) or state.get("format") != FORMAT:

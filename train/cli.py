@@ -42,6 +42,7 @@ def fit(cfg, out, no_resume):
     if distributed.world_from_env().size == 1 and cfg.compute.nproc > 1:
         distributed.launch_checked(cfg, out, resume=not no_resume)
         click.echo(json.dumps(json.loads(Path(out, "metrics.json").read_text())))
+        _wrote(out, "model.pt, metrics.json, loss.png")
         return
     try:
         metrics = run_fit(cfg, out, resume=not no_resume)
@@ -55,6 +56,13 @@ def fit(cfg, out, no_resume):
         raise
     if distributed.world_from_env().main and not os.environ.get(distributed.ERROR_DIR_ENV):
         click.echo(json.dumps(metrics))  # (under svtrain's own launcher, the launcher prints it)
+        _wrote(out, "model.pt, metrics.json, loss.png")
+
+
+def _wrote(where, what: str) -> None:
+    """The last line of a command whose stdout is data (fit's JSON, eval's table): where its outputs are, on stderr
+    so that ``svtrain fit > metrics.json`` stays one JSON document."""
+    click.echo(f"wrote {where} ({what})", err=True)
 
 
 svtrain.add_command(fit)
@@ -76,6 +84,7 @@ def eval_(ckpt, suite, store, limit, out, train_store, device):
     out = out or (ckpt if Path(ckpt).is_dir() else str(Path(ckpt).parent))
     res = run_eval(ckpt, out, suite=suite, store=store, limit=limit, train_store=train_store, device=device)
     click.echo(markdown(res), nl=False)
+    _wrote(out, "eval.json, eval.md, eval.png")
 
 
 @svtrain.command()

@@ -207,7 +207,7 @@ def last_checkpoint_note(out: Path) -> str:
     if not ck.is_file():
         return f"no checkpoint was written in {out} yet (rerun to start over)"
     try:
-        step = torch.load(ck, map_location="cpu", weights_only=False, mmap=True).get("step")
+        step = torch.load(ck, map_location="cpu", weights_only=True, mmap=True).get("step")
     except Exception:  # a checkpoint that cannot be read is reported by the resume itself
         step = "?"
     return f"the last checkpoint ({ck}) is at step {step}: rerun the same command to resume"

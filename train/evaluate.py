@@ -24,6 +24,7 @@ import torch
 
 from pipeline.store import refuse_inside
 from svcore.errors import ConfigError
+from svcore.progress import progress
 
 from . import runinfo
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
@@ -170,7 +171,7 @@ def dataset_mean(image: torch.Tensor, means: torch.Tensor) -> torch.Tensor:
 
 @torch.no_grad()
 def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: int = 8, seed: int = 0,
-             device: torch.device | str = "cpu") -> dict:
+             device: torch.device | str = "cpu", desc: str = "eval") -> dict:
     """Mean RMSEs of the model and both baselines over ``indices`` (centre crops, no augmentation), computed on
     ``device`` (model, baselines and batches).
 
@@ -190,13 +191,15 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
     else:
         methods.pop("model")
         acc.pop("model")
-    for lo in range(0, len(ds), batch_size):
-        items = [ds[k] for k in range(lo, min(lo + batch_size, len(ds)))]
-        img = torch.stack([x[0] for x in items]).to(device)
-        gt = torch.stack([x[1] for x in items]).to(device)
-        for name, fn in methods.items():
-            for c, v in metrics(fn(img), gt).items():
-                acc[name][c].extend(v.tolist())
+    with progress(len(ds), desc, unit="sample") as bar:
+        for lo in range(0, len(ds), batch_size):
+            items = [ds[k] for k in range(lo, min(lo + batch_size, len(ds)))]
+            img = torch.stack([x[0] for x in items]).to(device)
+            gt = torch.stack([x[1] for x in items]).to(device)
+            for name, fn in methods.items():
+                for c, v in metrics(fn(img), gt).items():
+                    acc[name][c].extend(v.tolist())
+            bar.update(len(items))
     res = {m: {c: float(np.mean(v)) for c, v in cols.items()} for m, cols in acc.items()}
     res["samples"] = len(ds)
     if "model" in acc:
@@ -267,7 +270,8 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     for name, (src, idx) in groups.items():
         if limit:
             idx = idx[:limit]
-        r = evaluate(model, src, idx, cfg.data.crop, means, cfg.optim.batch_size, cfg.optim.seed, dev)
+        r = evaluate(model, src, idx, cfg.data.crop, means, cfg.optim.batch_size, cfg.optim.seed, dev,
+                     desc=f"eval {name}" if len(groups) > 1 else "eval")
         r["beats_baselines"] = {c: all(r["model"][c] < r[b][c] for b in ("input_as_diffuse", "dataset_mean"))
                                 for c in COLUMNS}
         out_groups[name] = r
