@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import errno
 import functools
+import itertools
 import logging
 import os
 import warnings
@@ -151,6 +152,11 @@ def _on_worker(fn: Callable[[int, int], int], hosts: dict[str, int], c: int):
         raise
 
 
+#: tasks kept submitted per worker: enough that no worker waits for the client, few enough that the scheduler
+#: holds a handful of tasks, not a whole stage's.
+WINDOW_PER_WORKER = 4
+
+
 def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers: int = 2, scheduler_address: str | None = None,
                desc: str = "chunks", unit: str = "it", total_units: int | None = None, done_units: int = 0,
                task_bytes: int = 0) -> int:
@@ -189,20 +195,38 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
                 written += n
                 bar.update(n)
         return written
-    with dask_client(workers, address) as client:
-        task = functools.partial(_on_worker, fn, workers_per_host(client))
-        futures = client.map(task, chunks, pure=False, retries=RETRIES)
-        bar = progress(total=total_units or len(chunks), desc=desc, unit=unit, initial=done_units)
-        try:
-            for fut in as_completed(futures):
-                n = fut.result()  # re-raises the worker's exception after the retries
-                if isinstance(n, _Permanent):
-                    raise n.error  # SvgenError stays an SvgenError, ENOSPC an OSError
-                written += n
-                bar.update(n)
-        except BaseException:
-            client.cancel(futures)
-            raise
-        finally:
-            bar.close()
+    # the bar first (a cluster takes seconds to start), and the tasks in a window of a few per worker: submitting
+    # every chunk up front kept a large stage silent for minutes while the scheduler took its graph
+    bar = progress(total=total_units or len(chunks), desc=desc, unit=unit, initial=done_units)
+    try:
+        with dask_client(workers, address) as client:
+            task = functools.partial(_on_worker, fn, workers_per_host(client))
+            window = max(8, WINDOW_PER_WORKER * len(client.scheduler_info().get("workers", {})))
+            todo = iter(chunks)
+            pending: set = set()
+            running = as_completed()
+
+            def submit(c: int) -> None:
+                fut = client.submit(task, c, pure=False, retries=RETRIES)
+                pending.add(fut)
+                running.add(fut)
+
+            for c in itertools.islice(todo, window):
+                submit(c)
+            try:
+                for fut in running:
+                    pending.discard(fut)
+                    n = fut.result()  # re-raises the worker's exception after the retries
+                    if isinstance(n, _Permanent):
+                        raise n.error  # SvgenError stays an SvgenError, ENOSPC an OSError
+                    written += n
+                    bar.update(n)
+                    nxt = next(todo, None)
+                    if nxt is not None:
+                        submit(nxt)
+            except BaseException:
+                client.cancel(list(pending))
+                raise
+    finally:
+        bar.close()
     return written

@@ -67,3 +67,30 @@ def test_thread_budget_comes_from_the_worker_not_the_caller():
                 p.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 p.kill()
+
+
+
+def test_the_client_keeps_a_window_of_tasks_not_the_whole_stage(tmp_path):
+    """run_chunks submits a few tasks per worker and tops the window up as they finish: the scheduler never holds
+    a whole stage (a million-variant sample used to stay silent for minutes while its graph was submitted)."""
+    from pipeline import parallel
+
+    log = str(tmp_path)
+
+    def tasks_on_scheduler(chunk: int, threads: int) -> int:  # a closure: cloudpickle sends it by value
+        from pathlib import Path
+
+        from distributed import get_client
+
+        n = get_client().run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks))
+        Path(log, str(chunk)).write_text(str(n))
+        return 1
+
+    window = max(8, parallel.WINDOW_PER_WORKER * 1)
+    n = 3 * window + 5
+    assert run_chunks(tasks_on_scheduler, range(n), workers=1) == n
+    seen = {int(p.name): int(p.read_text()) for p in tmp_path.iterdir()}
+    assert sorted(seen) == list(range(n))
+    # + 2: a finished task's key leaves the scheduler asynchronously after the client drops its future, so the
+    # next task can start while one or two finished ones are still listed (seen: window + 1)
+    assert max(seen.values()) <= window + 2, f"the scheduler held {max(seen.values())} tasks; the window is {window}"
