@@ -11,6 +11,7 @@ added or removed.
 from __future__ import annotations
 
 import zlib
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,13 +55,35 @@ def select_presets(cfg: SampleConfig) -> list[materials.Preset]:
     return sorted({p.name: p for p in chosen}.values(), key=lambda p: p.name)
 
 
-def plan(cfg: SampleConfig) -> list[VariantSpec]:
-    """Every variant of the stage, in store order (preset by preset)."""
-    out = []
-    for p in select_presets(cfg):
-        key = zlib.crc32(p.name.encode())
-        out += [VariantSpec(p.name, k, derive_seed(cfg.seed, "sample", key, k)) for k in range(cfg.per_preset)]
-    return out
+class Plan(Sequence):
+    """Every variant of the stage, in store order (preset by preset), made on demand: variant ``i`` is
+    ``VariantSpec(names[i // per_preset], i % per_preset, derive_seed(seed, "sample", crc32(name), k))``.
+
+    A few numbers instead of a list: a million-variant stage would otherwise build (and ship to every dask task)
+    a list of a million specs before its progress bar could appear.
+    """
+
+    def __init__(self, names: list[str], per_preset: int, seed: int):
+        self.names, self.per_preset, self.seed = tuple(names), int(per_preset), int(seed)
+        self.keys = tuple(zlib.crc32(n.encode()) for n in self.names)
+
+    def __len__(self) -> int:
+        return len(self.names) * self.per_preset
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        if i < 0:
+            i += len(self)
+        if not 0 <= i < len(self):
+            raise IndexError(i)
+        p, k = divmod(i, self.per_preset)
+        return VariantSpec(self.names[p], k, derive_seed(self.seed, "sample", self.keys[p], k))
+
+
+def plan(cfg: SampleConfig) -> Plan:
+    """Every variant of the stage, in store order (preset by preset): a :class:`Plan`."""
+    return Plan([p.name for p in select_presets(cfg)], cfg.per_preset, cfg.seed)
 
 
 def perturb(preset: materials.Preset, k: int, sigma: float, rng: np.random.Generator) -> dict[str, float]:

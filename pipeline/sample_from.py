@@ -86,7 +86,7 @@ def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
 
     with_presets = not cfg.only_from
     chosen = select_presets(cfg) if with_presets else []
-    specs: list = plan(cfg) if with_presets else []
+    specs: list = list(plan(cfg)) if with_presets else []
     imported, records = plan_imported(stores, cfg.per_material, cfg.seed, cfg.size)
     names = [p.name for p in chosen] + sorted({s.preset for s in imported}, key=[s.preset for s in imported].index)
     if len(set(names)) != len(names):

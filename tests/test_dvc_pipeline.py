@@ -1,6 +1,8 @@
 """`dvc repro` end to end on a temporary copy of the repository with a tiny parameter set: every stage runs,
 metrics and plots are readable, a second `dvc repro` does nothing, and a SIGKILL in the middle of each of the
-sample, blend, render and fit stages followed by `dvc repro` ends with the outputs of an uninterrupted run."""
+sample, blend, render and fit stages followed by `dvc repro` resumes it (the chunks finished before the kill are
+kept, not rewritten; the fit continues from its checkpoint's step) and ends with the outputs of an uninterrupted
+run."""
 from __future__ import annotations
 
 import os
@@ -14,7 +16,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from conftest import tree_digest
+from conftest import chunk_stats, tree_digest
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = {
@@ -81,6 +83,8 @@ KILLS = {
     "fit": ({"train": {"optim": {"seed": 1, "iterations": 400, "checkpoint_every": 2}}}, "runs/train/checkpoint.pt",
             None),
 }
+#: stage -> (an array of its output store, its number of dimensions): whose chunk files show a resume kept them.
+CHUNKED = {"sample": ("diffuse", 4), "blend": ("diffuse", 4), "render": ("image", 5)}
 # the reference runs the svgen that `dvc repro` runs (the installed console script, not the project copy's modules):
 # a store records the version of the code that wrote it (git describe), which differs between the two trees
 SVGEN = ["svgen"]
@@ -125,6 +129,15 @@ def test_sigkill_during_a_stage_then_repro_gives_the_same_outputs(project, stage
     final = {"sample": "data/variants.zarr", "blend": "data/blends.zarr", "render": "data/renders.zarr",
              "fit": "runs/train/model.pt"}[stage]
     assert not (project / final).exists(), f"{stage} had finished before the kill: the test proves nothing"
+    # what the rerun must keep: the finished chunks' files (inode, mtime) or the checkpoint's step
+    if stage == "fit":
+        import torch
+
+        ck_step = int(torch.load(project / "runs/train/checkpoint.pt", weights_only=False)["step"])
+    else:
+        array, ndim = CHUNKED[stage]
+        finished = sorted(int(m.name) for m in marker.iterdir())
+        kept = chunk_stats(marker.parent, finished, array, ndim)
 
     sh(["dvc", "repro"], project)
     assert "up to date" in sh(["dvc", "status"], project).stdout
@@ -136,6 +149,10 @@ def test_sigkill_during_a_stage_then_repro_gives_the_same_outputs(project, stage
                       "--no-resume"], project)
         import torch
 
+        import json
+
+        resumed = json.loads((project / "runs/train/metrics.json").read_text())["resumed_from"]
+        assert resumed == ck_step, f"dvc repro's fit started at {resumed}, not at the checkpoint's step {ck_step}"
         a = torch.load(project / final, weights_only=False)["model"]
         b = torch.load(ref / "model.pt", weights_only=False)["model"]
         assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
@@ -143,3 +160,5 @@ def test_sigkill_during_a_stage_then_repro_gives_the_same_outputs(project, stage
     inputs = {"sample": [], "blend": ["data/variants.zarr"], "render": ["data/variants.zarr", "data/blends.zarr"]}
     sh(SVGEN + [stage, *inputs[stage], str(ref), "--params", "params.yaml", "--workers", "0"], project)
     assert tree_digest(project / final) == tree_digest(ref)
+    assert chunk_stats(project / final, finished, array, ndim) == kept, \
+        f"dvc repro's {stage} rewrote chunks finished before the kill"

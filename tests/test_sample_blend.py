@@ -10,7 +10,7 @@ import materials
 from conftest import tree_digest
 from pipeline.blend import MIN_NZ, blend_normals, mask
 from pipeline.config import SampleConfig
-from pipeline.sample import perturb, plan
+from pipeline.sample import VariantSpec, perturb, plan
 from pipeline.svbrdf_store import SVBRDFStore
 from svcore.config import build
 
@@ -51,7 +51,7 @@ def test_same_bytes_with_dask_workers_as_in_process(variants, tmp_path, svgen_cl
 def test_variant_does_not_depend_on_the_other_presets_selected():
     both = plan(build(SampleConfig, presets=("paint/glossy_red", "paint/matte_wall")))
     one = plan(build(SampleConfig, presets=("paint/matte_wall",)))
-    assert [s for s in both if s.preset == "paint/matte_wall"] == one
+    assert [s for s in both if s.preset == "paint/matte_wall"] == list(one)
     assert plan(build(SampleConfig, seed=0))[1].seed != plan(build(SampleConfig, seed=1))[1].seed
 
 
@@ -143,3 +143,19 @@ def test_blend_refuses_a_blends_store_as_input(variants, tmp_path, svgen_cli):
     assert svgen_cli("blend", variants, tmp_path / "b.zarr", "--count", 2, "--workers", 0)[0] == 0
     code, msg = svgen_cli("blend", tmp_path / "b.zarr", tmp_path / "bb.zarr")
     assert code != 0 and "is a blends store, expected a variants store" in msg
+
+
+def test_the_lazy_plan_is_the_list_of_every_variant():
+    """``plan`` makes variant i on demand (a million-variant stage lists nothing up front): it must be exactly the
+    preset-by-preset list of (preset, k, derive_seed(seed, "sample", crc32(preset), k)), slices included."""
+    import zlib
+
+    from svcore.seeds import derive_seed
+
+    cfg = build(SampleConfig, presets=("paint/glossy_red", "paint/matte_wall"), per_preset=3, seed=7)
+    lazy = plan(cfg)
+    eager = [VariantSpec(n, k, derive_seed(7, "sample", zlib.crc32(n.encode()), k))
+             for n in ("paint/glossy_red", "paint/matte_wall") for k in range(3)]
+    assert len(lazy) == 6 and list(lazy) == eager and lazy[2:5] == eager[2:5] and lazy[-1] == eager[-1]
+    with pytest.raises(IndexError):
+        lazy[6]

@@ -160,3 +160,22 @@ def test_a_run_records_its_data_preset_and_library_versions(src, tmp_path):
     assert prov["data"]["synthetic"] == {"samples": 16, "size": 40, "materials": 4, "seed": 2, "kind": "simple"}
     assert prov["versions"]["torch"] == md.version("torch") and prov["versions"]["numpy"] == md.version("numpy")
     assert torch.load(tmp_path / "run" / "model.pt", weights_only=False)["provenance"] == prov
+
+
+def test_resume_if_unchanged_continues_only_the_same_run(src, tmp_path):
+    """DVC's fit stage (``--resume-if-unchanged``; its checkpoint persists): a checkpoint of the same config, data
+    and code is continued from its step; one trained with another config is not, and the run starts over."""
+    cfg = resolve("compact", None, {**TINY, "optim.iterations": 6})
+    fit(cfg, tmp_path / "a", source=src, stop_after=3)
+    same = fit(cfg, tmp_path / "a", source=src, resume="if-unchanged")
+    assert same["resumed_from"] == 3
+    # another lr: the old checkpoint (its model config is the same, so a plain resume would continue it) is stale
+    other = resolve("compact", None, {**TINY, "optim.iterations": 6, "optim.lr": 5e-4})
+    fit(other, tmp_path / "b", source=src, stop_after=3)
+    restarted = fit(cfg, tmp_path / "b", source=src, resume="if-unchanged")
+    assert restarted["resumed_from"] is None
+    fresh = fit(cfg, tmp_path / "c", source=src, resume=False)
+    assert restarted["loss_final"] == fresh["loss_final"] == same["loss_final"]
+    # the plain resume continues what it finds (the model config matches): the new flag is what tells them apart
+    fit(other, tmp_path / "d", source=src, stop_after=3)
+    assert fit(cfg, tmp_path / "d", source=src)["resumed_from"] == 3

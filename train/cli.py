@@ -34,18 +34,24 @@ def svtrain(verbose: bool) -> None:
                          "compute.global_batch": "--global-batch"})
 @click.option("--out", default=DEFAULT_RUN, show_default=True, help="Run directory.")
 @click.option("--no-resume", is_flag=True, help="Start over even if the run directory has a checkpoint.")
-def fit(cfg, out, no_resume):
+@click.option("--resume-if-unchanged", is_flag=True,
+              help="Continue OUT/checkpoint.pt only if it was trained from this config, data and code; otherwise "
+                   "start over (what dvc.yaml's fit stage uses: its checkpoint persists across changed runs).")
+def fit(cfg, out, no_resume, resume_if_unchanged):
     """Train the network (resumes from OUT/checkpoint.pt after an interruption)."""
+    if no_resume and resume_if_unchanged:
+        raise click.UsageError("--no-resume and --resume-if-unchanged contradict each other: pass one")
     from . import distributed
     from .fit import fit as run_fit
 
+    resume = False if no_resume else ("if-unchanged" if resume_if_unchanged else True)
     if distributed.world_from_env().size == 1 and cfg.compute.nproc > 1:
-        distributed.launch_checked(cfg, out, resume=not no_resume)
+        distributed.launch_checked(cfg, out, resume=resume)
         click.echo(json.dumps(json.loads(Path(out, "metrics.json").read_text())))
         _wrote(out, "model.pt, metrics.json, loss.png")
         return
     try:
-        metrics = run_fit(cfg, out, resume=not no_resume)
+        metrics = run_fit(cfg, out, resume=resume)
     except distributed.SvgenError as e:
         if distributed.report_to_launcher(e):  # svtrain's launcher prints one line for the whole run
             raise click.exceptions.Exit(e.exit_code)

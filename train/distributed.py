@@ -230,7 +230,7 @@ def _describe(rank: int, failure, error_dir: Path, n: int) -> tuple[int, str]:
     return 2, f"rank {rank} of {n} exited with code {code}"
 
 
-def launch_checked(cfg, out: str | Path, resume: bool) -> None:
+def launch_checked(cfg, out: str | Path, resume: bool | str) -> None:
     """``svtrain fit --nproc N``: every check a worker would make (device, precision, world, global batch, the data
     source) runs here first, so bad input is one line from one process, then :func:`launch`."""
     from .data import open_source, split_by_source
@@ -253,7 +253,7 @@ def write_worker_params(cfg, path: Path) -> Path:
     return path
 
 
-def launch(cfg, out: str | Path, nproc: int, resume: bool) -> None:
+def launch(cfg, out: str | Path, nproc: int, resume: bool | str) -> None:
     """Run ``svtrain fit`` in ``nproc`` processes on this machine through torch's elastic launcher.
 
     The resolved config travels as a params file, so every rank trains exactly the config checked here.
@@ -270,8 +270,8 @@ def launch(cfg, out: str | Path, nproc: int, resume: bool) -> None:
         params = write_worker_params(cfg, Path(tmp) / "params.yaml")
         errors = Path(tmp) / "errors"
         errors.mkdir()
-        args = ["-m", "train.cli", "fit", "--params", str(params), "--out", str(out)] + ([] if resume else
-                                                                                          ["--no-resume"])
+        args = ["-m", "train.cli", "fit", "--params", str(params), "--out", str(out)] + (
+            ["--no-resume"] if not resume else ["--resume-if-unchanged"] if resume == "if-unchanged" else [])
         config = LaunchConfig(min_nodes=1, max_nodes=1, nproc_per_node=nproc, run_id=f"svtrain-{uuid.uuid4().hex[:8]}",
                               rdzv_backend="c10d", rdzv_endpoint="localhost:0", max_restarts=0, monitor_interval=0.2)
         env = {ERROR_DIR_ENV: str(errors)}

@@ -258,7 +258,7 @@ def _plot(path: Path, rows: list[tuple[int, float]]) -> None:
     plt.close(fig)
 
 
-def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop_after: int | None = None,
+def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None, stop_after: int | None = None,
         show_progress: bool | None = None) -> dict:
     """Train (or continue training) into ``out_dir``, on ``cfg.compute``'s device and precision, as one rank of a
     data-parallel run when a launcher started this process (train/distributed.py).
@@ -266,7 +266,9 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
     Args:
         cfg: validated config.
         out_dir: run directory (created).
-        resume: continue from ``out_dir/checkpoint.pt`` when it exists.
+        resume: continue from ``out_dir/checkpoint.pt`` when it exists; ``"if-unchanged"``: only when the
+            checkpoint was trained from this config, data and code (:func:`train.runinfo.resume_key`), else start
+            over, saying so (DVC's fit stage: its checkpoint persists across runs with other inputs).
         source: a data source (default: ``open_source(cfg.data)``).
         stop_after: stop after this many steps of *this call* (tests simulate an interruption),
             checkpointing first.
@@ -301,15 +303,19 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool = True, source=None, stop
             raise
 
 
-def _fit(cfg: Config, out: Path, resume: bool, src, train_idx, test_idx, stop_after, show_progress, world: World,
+def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, stop_after, show_progress, world: World,
          place: Placement) -> dict:
     o = cfg.optim
     ckpt_path = out / "checkpoint.pt"
     trainer = Trainer(cfg, place, world)
     start, losses = 0, []
     state = None
+    key = runinfo.resume_key(cfg, provenance(cfg, src)["data"])
     if resume and world.main and ckpt_path.exists():
         state = checkpoint.load(ckpt_path)
+        if resume == "if-unchanged" and state.get("resume_key") != key:
+            log.warning("%s is from a run with another config, data or code: starting over", ckpt_path)
+            state = None
     state = broadcast(state, world)  # rank 0 reads, every rank continues from it (no shared file system needed)
     if state is not None:
         trainer.load(state, out)
@@ -325,6 +331,7 @@ def _fit(cfg: Config, out: Path, resume: bool, src, train_idx, test_idx, stop_af
 
     def save(step: int) -> None:
         st = trainer.state(step, losses)  # every rank (gathers the ranks' RNG states)
+        st["resume_key"] = key
         if world.main:
             checkpoint.save(ckpt_path, st)
 

@@ -7,6 +7,7 @@ is moved as a whole. ``svtrain eval`` (its baselines need the training split's m
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -24,6 +25,36 @@ def record(run_dir: str | os.PathLike, store: str | None) -> None:
     tmp = run / (RUN_FILE + ".tmp")
     tmp.write_text(json.dumps(info, indent=1) + "\n")
     os.replace(tmp, run / RUN_FILE)
+
+
+#: the packages whose source decides a run's result (``svtrain fit`` reads stores through pipeline's readers).
+CODE_PACKAGES = ("svcore", "pipeline", "materials", "train")
+
+
+def code_digest() -> str:
+    """sha256 of the source of :data:`CODE_PACKAGES` (file names and bytes): the code half of :func:`resume_key`."""
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for pkg in CODE_PACKAGES:
+        for f in sorted((root / pkg).rglob("*.py")):
+            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def resume_key(cfg, data: dict) -> str:
+    """What a checkpoint must have been trained from for ``svtrain fit --resume-if-unchanged`` to continue it:
+    the resolved config (less the store's spelling and the loader's worker count, which do not change a step's
+    result), the training data's identity (``data``: a store's kind, config hash and size, or the synthetic
+    source's settings; :func:`train.fit.provenance`) and :func:`code_digest`.
+
+    DVC reruns the fit stage when its params, store or code change, and also when a killed run left no model:
+    only the second case may continue the checkpoint it finds.
+    """
+    conf = cfg.to_dict()
+    conf["data"] = {k: v for k, v in conf["data"].items() if k not in ("store", "workers")}
+    ident = {k: v for k, v in data.items() if k not in ("store", "store_resolved")}
+    blob = json.dumps({"config": conf, "data": ident, "code": code_digest()}, sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()
 
 
 def run_dir_of(checkpoint_path: str | os.PathLike) -> Path:
