@@ -18,7 +18,6 @@ from conftest import tree_digest
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = {
-    "workers": 2,
     "sample": {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8},
     "blend": {"count": 8, "seed": 0, "alpha_low": 0.2, "alpha_high": 0.8, "mode": "scalar", "chunk": 8},
     "render": {"views": 2, "res": 64, "spp": 1, "light": "point", "sampler": "centre", "seed": 0, "chunk": 2},
@@ -33,8 +32,9 @@ ENV = {**os.environ, "SVGEN_NO_PROGRESS": "1", "GIT_AUTHOR_NAME": "t", "GIT_AUTH
        "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
 
 
-def sh(cmd, cwd, check=True, **kw):
-    r = subprocess.run(cmd, cwd=cwd, env=ENV, capture_output=True, text=True, shell=isinstance(cmd, str), **kw)
+def sh(cmd, cwd, check=True, env=None, **kw):
+    r = subprocess.run(cmd, cwd=cwd, env=env or ENV, capture_output=True, text=True, shell=isinstance(cmd, str),
+                       **kw)
     if check and r.returncode != 0:
         raise AssertionError(f"{cmd} failed ({r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
     return r
