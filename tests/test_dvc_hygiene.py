@@ -181,8 +181,9 @@ def test_plots_show_draws_the_readme_charts(repro):
     steps = [float(v["step"]) for v in values]
     # one series whose x only grows: a line, not a zig-zag across series that DVC joined
     assert len(steps) >= 2 and steps == sorted(steps) and len(set(steps)) == len(steps), steps
-    encoding = json.dumps(loss[0]["content"]["encoding"])
-    assert '"step"' in encoding and '"loss"' in encoding
+    content = json.dumps(loss[0]["content"])
+    assert '"mark": "line"' in content and '"loess"' not in content  # the curve itself, as the README draws it
+    assert '"y": {"field": "loss"' in content and '"x": {"field": "step"' in content
     # no data plot of a several-series CSV is declared (they drew one zig-zag line)
     assert not [p for p in plots if p.endswith(".csv") and p != "runs/train/loss.csv"], sorted(plots)
 
