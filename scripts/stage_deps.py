@@ -39,12 +39,6 @@ def module_file(name: str, root: Path = ROOT) -> Path | None:
     return None
 
 
-def _package_of(path: Path, root: Path) -> str:
-    rel = path.relative_to(root).with_suffix("")
-    parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts[:-1]
-    return ".".join(parts)
-
-
 def _fstring_prefix(node: ast.JoinedStr, name: str, package: str) -> tuple[str, bool]:
     """The literal text of an f-string with __name__/__package__ substituted, and whether it is complete."""
     text = ""
