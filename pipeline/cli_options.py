@@ -5,12 +5,19 @@ import os
 
 import click
 
+#: the environment variable read when ``--workers`` is not given. A machine setting, not a parameter: the bytes
+#: of a store do not depend on it (tests/test_render_store.py), so it stays out of params.yaml and of dvc.yaml's
+#: commands, and changing it reruns no DVC stage (README "DVC").
+WORKERS_ENV = "SVGEN_WORKERS"
+
 
 def parallel_options(f):
-    """--workers / --scheduler-address."""
+    """--workers (or SVGEN_WORKERS) / --scheduler-address."""
     f = click.option("--scheduler-address", default=None, metavar="ADDR",
                      help="A running dask.distributed scheduler (tcp://host:port); default: DASK_SCHEDULER_ADDRESS, "
                           "else local worker processes.")(f)
     f = click.option("--workers", type=click.IntRange(min=0), default=min(2, os.cpu_count() or 1), show_default=True,
-                     help="Local dask worker processes (0: run in this process, no dask).")(f)
+                     envvar=WORKERS_ENV, show_envvar=True,
+                     help=f"Local dask worker processes (0: run in this process, no dask); without the flag, "
+                          f"{WORKERS_ENV} when set.")(f)
     return f

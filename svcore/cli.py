@@ -124,14 +124,16 @@ def _param(key: str) -> str:
     return "cfg__" + key.replace(".", "__")
 
 
-def config_command(cls, flags: dict[str, str], **command_kw):
+def config_command(cls, flags: dict[str, str], envvars: dict[str, str] | None = None, **command_kw):
     """Decorator: a click command configured by ``cls``.
 
     Adds ``--config-preset``, ``--params FILE``, ``--set KEY=VALUE`` (repeatable), ``--print-config``, and one
     flag per entry of ``flags`` (dotted config key -> flag spelling, e.g. ``{"per_preset": "--per-preset"}``;
     a bool key may be spelled ``"--on/--off"``), each with the field's documentation as help. The command
     function receives ``cfg`` (the resolved config) instead of these options; ``--print-config`` prints it as
-    params.yaml YAML and exits 0 before the command runs.
+    params.yaml YAML and exits 0 before the command runs. ``envvars`` (dotted key -> environment variable) lets
+    a machine setting's flag be read from the environment when it is not given (it then wins over params.yaml
+    like the flag would): settings such as worker counts, which change no output byte, stay out of params.yaml.
     """
     from .config import PRESET_FLAG, field, preset_values
 
@@ -156,7 +158,8 @@ def config_command(cls, flags: dict[str, str], **command_kw):
                 f = click.option(flag, _param(key), type=typ, multiple=True,
                                  help=f"{doc} Repeatable. [config key {key}]")(f)
             else:
-                f = click.option(flag, _param(key), type=typ, default=None,
+                env = (envvars or {}).get(key)
+                f = click.option(flag, _param(key), type=typ, default=None, envvar=env, show_envvar=env is not None,
                                  help=f"{doc} [config key {key}; default: {show(defaults[key])}]")(f)
         f = click.option("--print-config", is_flag=True,
                          help=f"Print the resolved config as a '{cls.SECTION}:' params.yaml section and exit.")(f)

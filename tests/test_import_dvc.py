@@ -10,7 +10,9 @@ import yaml
 
 from conftest import tree_digest
 from import_fixtures import ambientcg, bumpy_normals
-from test_dvc_pipeline import REPO, sh  # the same project copy rules
+from test_dvc_pipeline import ENV, REPO, sh  # the same project copy rules
+
+IN_PROCESS = {**ENV, "SVGEN_WORKERS": "0"}  # the stages run without dask workers (a machine setting, not a param)
 
 SAMPLE = {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8, "presets": ["paint/glossy_red"],
           "per_material": 2}
@@ -23,7 +25,7 @@ def project(d, sources):
             (d / f).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(REPO / f, d / f)
     params = yaml.safe_load((d / "params.yaml").read_text())
-    params.update({"workers": 0, "sample": SAMPLE, "import": {"sources": sources}})
+    params.update({"sample": SAMPLE, "import": {"sources": sources}})
     (d / "params.yaml").write_text(yaml.safe_dump(params))
     (d / "dvc.lock").unlink(missing_ok=True)
     sh("git init -q && git add -A && git commit -qm init", d)
@@ -35,7 +37,7 @@ def test_dvc_import_stage(tmp_path):
     from pipeline.svbrdf_store import SVBRDFStore
 
     empty = project(tmp_path / "empty", [])
-    r = sh(["dvc", "repro", "sample"], empty)
+    r = sh(["dvc", "repro", "sample"], empty, env=IN_PROCESS)
     assert "Running stage 'import'" in r.stdout and "Running stage 'sample'" in r.stdout, r.stdout
     # the reference: the sample stage's own function, without any import code path
     from pipeline.config import SampleConfig
@@ -48,7 +50,7 @@ def test_dvc_import_stage(tmp_path):
     src = tmp_path / "library"
     ambientcg(src, "Rock", 64, np.random.default_rng(0), {"GL": bumpy_normals(64, np.random.default_rng(1))})
     full = project(tmp_path / "full", [str(src)])
-    r = sh(["dvc", "repro", "sample"], full)
+    r = sh(["dvc", "repro", "sample"], full, env=IN_PROCESS)
     v = SVBRDFStore(full / "data/variants.zarr")
     assert v.presets == ["paint/glossy_red", "imported/Rock"] and len(v) == 1 + 2
     assert "up to date" in sh(["dvc", "status", "sample"], full).stdout

@@ -31,7 +31,8 @@ def svtrain(verbose: bool) -> None:
                          "optim.batch_size": "--batch-size", "optim.seed": "--seed", "data.workers": "--workers",
                          "optim.compile_loss": "--compile/--no-compile", "compute.device": "--device",
                          "compute.precision": "--precision", "compute.nproc": "--nproc",
-                         "compute.global_batch": "--global-batch"})
+                         "compute.global_batch": "--global-batch"},
+                envvars={"data.workers": "SVGEN_WORKERS"})
 @click.option("--out", default=DEFAULT_RUN, show_default=True, help="Run directory.")
 @click.option("--no-resume", is_flag=True, help="Start over even if the run directory has a checkpoint.")
 @click.option("--resume-if-unchanged", is_flag=True,

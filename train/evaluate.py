@@ -280,6 +280,9 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     (out / "eval.json").write_text(json.dumps(res, indent=2) + "\n")
+    from . import dvc_metrics
+
+    dvc_metrics.write(out / dvc_metrics.EVAL_FILE, dvc_metrics.eval_metrics(res))  # what `dvc metrics` shows
     (out / "eval.md").write_text(markdown(res))
     plot_eval(groups_of(res), out / "eval.png", f"svtrain eval --suite {suite}: {checkpoint_path}")
     return res

@@ -11,7 +11,8 @@ checkpoints, progress and outputs around it, and the benchmarks iterate the same
 
 Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (full state),
 ``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
-versions), ``metrics.json``, ``loss.csv``, ``loss.png``.
+versions), ``metrics.json`` (everything), ``fit_metrics.json`` (the few numbers `dvc metrics` shows), ``loss.csv``,
+``loss.png``.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from svcore.progress import progress
 from svcore.seeds import stream_seed
 from svcore.versions import library_versions
 
-from . import checkpoint, runinfo
+from . import checkpoint, dvc_metrics, runinfo
 from .config import Config, OptimConfig
 from .data import PairDataset, make_loader, open_source, split_by_source
 from .device import Placement, placement
@@ -237,6 +238,7 @@ def _write_outputs(out: Path, cfg: Config, losses: list[float], extra: dict) -> 
     metrics = {"step": int(len(arr)), "loss_final": float(tail.mean()) if len(tail) else None,
                "loss_first": float(arr[:o.log_every].mean()) if len(arr) else None, **extra}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    dvc_metrics.write(out / dvc_metrics.FIT_FILE, dvc_metrics.fit_metrics(metrics))  # what `dvc metrics` shows
     _plot(out / "loss.png", rows)
     return metrics
 

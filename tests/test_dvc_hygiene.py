@@ -1,0 +1,229 @@
+"""DVC as its users expect it (issue #14): deps that cover every imported module, no machine settings in the
+commands, a small flat `dvc metrics show`, `dvc plots show` drawing the README's charts, every config key one
+`dvc exp run -S` away, and a `dvc push` / `dvc pull` round trip through a local directory remote.
+
+The static checks read dvc.yaml, params.yaml and the source; the others run `dvc repro` once on a temporary copy
+of the repository with the repository's params.yaml and tiny values (tests/test_dvc_pipeline.py's copy rules).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from conftest import tree_digest
+from test_dvc_pipeline import ENV, REPO, TINY, _merge, sh
+
+sys.path.insert(0, str(REPO / "scripts"))
+import params_yaml  # noqa: E402
+import stage_deps  # noqa: E402
+
+#: the tiny pipeline runs in process (no dask workers to start): a machine setting, which reruns nothing
+FAST = {**ENV, "SVGEN_WORKERS": "0"}
+STAGES = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
+
+
+def _dep_paths(stage: dict) -> list[str]:
+    return [d if isinstance(d, str) else next(iter(d)) for d in stage.get("deps", [])]
+
+
+def _out_paths(stage: dict) -> list[str]:
+    return [o if isinstance(o, str) else next(iter(o))
+            for key in ("outs", "metrics", "plots") for o in stage.get(key, [])]
+
+
+# -- 1. deps complete by construction -------------------------------------------------------------------------
+def test_the_import_graph_sees_lazy_and_registry_imports():
+    """The finder is not vacuous: svgen's lazily imported stage module, the modules it imports inside functions
+    and the material classes the registry imports by name are all seen."""
+    sample = {str(p.relative_to(REPO)) for p in stage_deps.stage_files(STAGES["sample"]["cmd"])}
+    assert {"pipeline/cmd_sample.py", "pipeline/sample.py", "pipeline/sample_from.py", "svcore/seeds.py",
+            "materials/registry.py", "materials/classes/wood.py"} <= sample, sorted(sample)
+    evaluate = {str(p.relative_to(REPO)) for p in stage_deps.stage_files(STAGES["eval"]["cmd"])}
+    assert "train/evaluate.py" in evaluate and "train/fit.py" not in evaluate  # only `eval`'s function of the CLI
+
+
+def test_every_stage_dep_covers_the_modules_its_command_imports():
+    missing = {stage: files for stage, files in stage_deps.uncovered().items() if files}
+    assert not missing, ("stages whose deps miss modules their command imports (a change there would not rerun "
+                         f"them; `python3 scripts/stage_deps.py` lists them): {missing}")
+
+
+def test_every_input_a_command_names_is_a_dep():
+    """A path in a command that another stage writes is an input: it must be a dep, or the stage would not rerun
+    when it changes (and DVC would not order the stages)."""
+    produced = {o: name for name, st in STAGES.items() for o in _out_paths(st)}
+    for name, st in STAGES.items():
+        deps = _dep_paths(st)
+        for word in st["cmd"].replace("&&", " ").split():
+            owner = produced.get(word.rstrip("/"))
+            if owner is not None and owner != name:
+                assert word.rstrip("/") in deps, f"stage {name}: {word} (written by {owner}) is not a dep"
+
+
+# -- 2. machine settings out of the commands ------------------------------------------------------------------
+def test_no_worker_count_in_commands_or_params():
+    params = yaml.safe_load((REPO / "params.yaml").read_text())
+    assert "workers" not in params
+    for name, st in STAGES.items():
+        assert "workers" not in st["cmd"], f"stage {name} puts a worker count in its command: {st['cmd']}"
+
+
+def test_svgen_workers_environment_variable_is_read(tmp_path):
+    """SVGEN_WORKERS reaches --workers (an invalid value is refused naming it) and svtrain's loader workers."""
+    r = sh([sys.executable, "-c", "from pipeline.cli import main; main()", "sample", str(tmp_path / "v.zarr"),
+            "--per-preset", "1", "--size", "64"], REPO, check=False, env={**ENV, "SVGEN_WORKERS": "-1"})
+    assert r.returncode == 2 and "SVGEN_WORKERS" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    r = sh([sys.executable, "-c", "from train.cli import main; main()", "fit", "--print-config"], REPO,
+           env={**ENV, "SVGEN_WORKERS": "5"})
+    assert yaml.safe_load(r.stdout)["train"]["data"]["workers"] == 5
+
+
+# -- 5. every config key in params.yaml -----------------------------------------------------------------------
+def test_params_yaml_holds_every_config_key():
+    params = yaml.safe_load((REPO / "params.yaml").read_text())
+    missing = params_yaml.missing_keys(params)
+    assert not missing, f"params.yaml lacks {missing}: run python3 scripts/params_yaml.py --write"
+    # the generator is the file's source: regenerating changes nothing (values and comments)
+    assert params_yaml.generate(params) == (REPO / "params.yaml").read_text()
+
+
+def test_params_yaml_check_names_a_missing_key(tmp_path):
+    params = yaml.safe_load((REPO / "params.yaml").read_text())
+    del params["train"]["model"]["base_width"]
+    path = tmp_path / "params.yaml"
+    path.write_text(yaml.safe_dump(params))
+    r = sh([sys.executable, str(REPO / "scripts" / "params_yaml.py"), "--check", "--params", str(path)], REPO,
+           check=False)
+    assert r.returncode == 1 and "train.model.base_width" in r.stderr, r.stderr
+
+
+# -- the tiny pipeline ----------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def repro(tmp_path_factory):
+    """A copy of the repository (tracked files) as a git + DVC project: the repository's params.yaml with tiny
+    values, `dvc repro` done once."""
+    if shutil.which("dvc") is None:
+        pytest.fail("dvc is not installed: run scripts/setup.sh")
+    d = tmp_path_factory.mktemp("hygiene")
+    for f in sh(["git", "ls-files"], REPO).stdout.split():
+        if (REPO / f).is_file():
+            (d / f).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(REPO / f, d / f)
+    params = yaml.safe_load((d / "params.yaml").read_text())
+    _merge(params, {k: v for k, v in TINY.items() if k != "workers"})
+    _merge(params, {"train": {"optim": {"log_every": 1}}})  # a training curve of several points
+    (d / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
+    (d / "dvc.lock").unlink(missing_ok=True)
+    sh("git init -q && git add -A && git commit -qm init", d)
+    sh(["dvc", "repro"], d, env=FAST)
+    return d
+
+
+def test_changing_the_worker_count_reruns_nothing(repro):
+    for workers in ("0", "1", "3"):
+        env = {**ENV, "SVGEN_WORKERS": workers}
+        assert "up to date" in sh(["dvc", "status"], repro, env=env).stdout
+        again = sh(["dvc", "repro"], repro, env=env)
+        assert "Running stage" not in again.stdout, again.stdout
+
+
+# -- 3. a small flat metrics table ----------------------------------------------------------------------------
+def _leaves(d, prefix=""):
+    for k, v in d.items():
+        if isinstance(v, dict):
+            yield from _leaves(v, f"{prefix}{k}.")
+        else:
+            yield prefix + k, v
+
+
+def test_metrics_show_is_small_flat_and_numeric(repro):
+    shown = json.loads(sh(["dvc", "metrics", "show", "--json"], repro, env=FAST).stdout)
+    files = shown[""]["data"]
+    columns = {}
+    for name, f in files.items():
+        assert "error" not in f, (name, f)
+        for key, value in _leaves(f["data"]):
+            assert key.count(".") <= 1, f"{name}: {key} nests deeper than one level"
+            columns[f"{name}:{key}"] = value
+    assert len(columns) < 40, sorted(columns)
+    bad = {k: v for k, v in columns.items()
+           if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)}
+    assert not bad, f"metrics that are not finite numbers: {bad}"
+    assert not any("per_s" in k for k in columns), "machine-dependent speeds are not metrics"
+    assert set(files) == {"runs/train/fit_metrics.json", "runs/eval/eval_metrics.json",
+                          "runs/eval_stress/eval_metrics.json"}, set(files)
+    # the table that matters is there: the held-out eval of the model and its baselines, the training loss
+    assert {"runs/eval/eval_metrics.json:model.rerender", "runs/eval/eval_metrics.json:dataset_mean.rerender",
+            "runs/train/fit_metrics.json:loss_final"} <= set(columns)
+    # and the full records are still written, as outputs
+    assert json.loads((repro / "runs/train/metrics.json").read_text())["done"] is True
+
+
+# -- 4. plots that draw the README's charts -------------------------------------------------------------------
+def test_plots_show_draws_the_readme_charts(repro):
+    shown = json.loads(sh(["dvc", "plots", "show", "--json"], repro, env=FAST).stdout)
+    assert not shown.get("errors"), shown.get("errors")
+    plots = shown["data"]
+    for chart in ("render", "training", "scaleout", "agreement", "stress"):
+        path = f"runs/charts/chart_{chart}.png"
+        assert path in plots, sorted(plots)
+        assert [p["type"] for p in plots[path]] == ["image"], plots[path]
+        assert (repro / path).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    loss = plots["runs/train/loss.csv"]
+    assert [p["type"] for p in loss] == ["vega"], loss
+    values = loss[0]["content"]["data"]["values"]
+    steps = [float(v["step"]) for v in values]
+    # one series whose x only grows: a line, not a zig-zag across series that DVC joined
+    assert len(steps) >= 2 and steps == sorted(steps) and len(set(steps)) == len(steps), steps
+    content = json.dumps(loss[0]["content"])
+    spec = loss[0]["content"]
+    assert spec["mark"]["type"] == "line" and "loess" not in content  # the curve itself, as fit's loss.png draws it
+    assert (spec["encoding"]["x"]["field"], spec["encoding"]["y"]["field"]) == ("step", "loss")
+    # no data plot of a several-series CSV is declared (they drew one zig-zag line)
+    assert not [p for p in plots if p.endswith(".csv") and p != "runs/train/loss.csv"], sorted(plots)
+
+
+# -- 6. a remote ----------------------------------------------------------------------------------------------
+def test_push_then_pull_from_a_local_remote_is_bit_identical(repro, tmp_path):
+    cached = [o for st in STAGES.values() for o in st.get("outs", []) if isinstance(o, str)]
+    assert "data/renders.zarr" in cached and "runs/train/model.pt" in cached
+
+    def digest(rel):
+        p = repro / rel
+        return tree_digest(p) if p.is_dir() else {"": hashlib.sha256(p.read_bytes()).hexdigest()}
+
+    before = {o: digest(o) for o in cached}
+    assert any(before[o] for o in cached if o.endswith(".zarr")), "the stores are empty: the test proves nothing"
+    sh(["dvc", "remote", "add", "-f", "-d", "local", str(tmp_path / "remote")], repro)
+    sh(["dvc", "push"], repro, env=FAST)
+    shutil.rmtree(repro / ".dvc" / "cache")
+    for o in cached:
+        p = repro / o
+        if p.is_dir():
+            shutil.rmtree(p)
+        else:
+            p.unlink()
+    sh(["dvc", "pull"], repro, env=FAST)
+    after = {o: digest(o) for o in cached}
+    assert after == before
+    assert "up to date" in sh(["dvc", "status"], repro, env=FAST).stdout
+    sh(["dvc", "remote", "remove", "local"], repro)
+
+
+# -- 5. one `dvc exp run -S` of a nested key ------------------------------------------------------------------
+def test_exp_run_sets_a_nested_training_key(repro):
+    """A key the tiny overrides do not touch (the train.model section was missing from params.yaml before, and
+    DVC refuses -S on a key that is not in the file: "Key 'model' is not in struct")."""
+    sh("git add -A && git commit -qm repro", repro)
+    r = sh(["dvc", "exp", "run", "-S", "train.model.decoder_convs=2"], repro, env=FAST)
+    assert "Running stage 'fit'" in r.stdout and "Running stage 'sample'" not in r.stdout, r.stdout
+    cfg = yaml.safe_load((repro / "runs/train/config.yaml").read_text())
+    assert cfg["model"]["decoder_convs"] == 2
+    assert yaml.safe_load((repro / "params.yaml").read_text())["train"]["model"]["decoder_convs"] == 2
