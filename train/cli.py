@@ -9,6 +9,7 @@ from pathlib import Path
 
 import click
 
+from pipeline.cli_options import storage_option
 from svcore.cli import config_command, run_cli, version_option
 from svcore.log import configure, get_logger
 
@@ -33,6 +34,7 @@ def svtrain(verbose: bool) -> None:
                          "compute.precision": "--precision", "compute.nproc": "--nproc",
                          "compute.global_batch": "--global-batch"})
 @click.option("--out", default=DEFAULT_RUN, show_default=True, help="Run directory.")
+@storage_option
 @click.option("--no-resume", is_flag=True, help="Start over even if the run directory has a checkpoint.")
 def fit(cfg, out, no_resume):
     """Train the network (resumes from OUT/checkpoint.pt after an interruption)."""
@@ -69,6 +71,7 @@ svtrain.add_command(fit)
 @click.option("--train-store", default=None,
               help="The run's training store, if it moved (default: found through the run's run.json).")
 @click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
+@storage_option
 def eval_(ckpt, suite, store, limit, out, train_store, device):
     """RMSE per map and of re-renderings, beside the baselines (eval.json, eval.md)."""
     from .evaluate import markdown, run_eval
