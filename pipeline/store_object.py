@@ -32,6 +32,7 @@ import socket
 import threading
 import time
 import uuid
+import warnings
 
 import numpy as np
 import zarr
@@ -45,6 +46,9 @@ from .objstore import ObjectLocation, record_of, s3_errors
 log = get_logger(__name__)
 
 LOCK_SUFFIX = ".lock"
+
+# markers live inside the store until it is complete; consolidation, which runs before, skips them knowingly
+warnings.filterwarnings("ignore", message="Object at .done is not recognized", category=UserWarning)
 LOCK_TTL_ENV = "SVGEN_LOCK_TTL"
 
 
