@@ -366,6 +366,47 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(Path(partial) / DONE_DIR))
 
 
+def side_write(partial, rel: str, data: bytes) -> None:
+    """Write a stage's own object ``rel`` (e.g. per-chunk records) into an unfinished store, atomically: a temporary
+    file renamed into place locally, one PUT on an object store."""
+    if is_object_url(partial):
+        from .objstore import ObjectLocation, s3_errors
+
+        loc = ObjectLocation(str(partial))
+        with s3_errors(loc.url, "write"):
+            loc.write(rel, data)
+        return
+    target = Path(partial) / rel
+    target.parent.mkdir(exist_ok=True)
+    tmp = target.with_suffix(".tmp")
+    tmp.write_bytes(data)
+    os.replace(tmp, target)
+
+
+def side_read(partial, rel: str) -> bytes:
+    """Read a stage's own object written by :func:`side_write`."""
+    if is_object_url(partial):
+        from .objstore import ObjectLocation, s3_errors
+
+        loc = ObjectLocation(str(partial))
+        with s3_errors(loc.url, "read"):
+            return loc.read(rel)
+    return (Path(partial) / rel).read_bytes()
+
+
+def side_remove(partial, rel_dir: str) -> None:
+    """Remove a stage's own folder of objects (before finalize: it is not part of the finished store)."""
+    if is_object_url(partial):
+        from .objstore import ObjectLocation, s3_errors
+
+        loc = ObjectLocation(str(partial))
+        with s3_errors(loc.url, "clean"):
+            for k in loc.sizes(rel_dir):
+                loc.delete(loc.key(k))
+        return
+    shutil.rmtree(Path(partial) / rel_dir)
+
+
 def _kill_hook(moment: str) -> None:
     """Tests kill a real run at a chosen moment: ``SVGEN_TEST_KILL_AT=create`` (the store is created, not yet
     renamed) or ``chunk`` (right after the first chunk's marker). Unset in normal use: does nothing.

@@ -202,3 +202,15 @@ def test_train_two_steps_from_s3(variants, s3, tmp_path):  # noqa: F811
     assert any((tmp_path / "s3cache").rglob("*")), "nothing went through the chunk cache"
     info = json.loads((tmp_path / "run" / "run.json").read_text())
     assert info["train_store"]["from_run"] == url
+
+
+def test_import_to_s3_equals_local(s3, tmp_path, svgen_cli):
+    """`svgen import` keeps its per-chunk records beside the chunks: in the bucket too, and they are gone after."""
+    from import_fixtures import ambientcg, bumpy_normals
+
+    ambientcg(tmp_path / "src", "GL", 32, np.random.default_rng(1), {"GL": bumpy_normals(32, np.random.default_rng(2))})
+    for out in (tmp_path / "i.zarr", s3.url("i.zarr")):
+        code, err = svgen_cli("import", tmp_path / "src", out, "--size", "16", "--workers", "0")
+        assert code == 0, err
+    assert_same_store(s3, s3.url("i.zarr"), tmp_path / "i.zarr")
+    assert not s3.fs().find(f"{s3.bucket}/i.zarr/.import_records")
