@@ -220,19 +220,11 @@ class ObjectLocation:
         ``cache_tag`` names the content (the manifest's hash): a store rewritten under the same URL never reads
         another's cached chunks.
         """
-        from zarr.storage import FsspecStore
-
         if cached and os.environ.get(CACHE_ENV, "") != "off":
-            import fsspec
-
             base = os.environ.get(CACHE_ENV) or str(Path.home() / ".cache" / "svgen" / "objects")
             tag = hashlib.sha256(f"{self.url}\0{cache_tag}".encode()).hexdigest()[:24]
-            fs = fsspec.filesystem("simplecache", target_protocol="s3", target_options=_s3fs_options(),
-                                   cache_storage=str(Path(base) / tag), same_names=False)
-            with warnings.catch_warnings():  # zarr wraps the sync cache in its AsyncFileSystemWrapper: intended
-                warnings.simplefilter("ignore")
-                return FsspecStore(fs=_async_wrap(fs), path=self.root, read_only=read_only)
-        return FsspecStore(fs=make_fs(asynchronous=True), path=self.root, read_only=read_only)
+            return fork_safe_store(lambda: _cached_fs(str(Path(base) / tag)), self.root, read_only)
+        return fork_safe_store(lambda: make_fs(asynchronous=True), self.root, read_only)
 
     # small objects
     def exists(self, rel: str) -> bool:
@@ -308,6 +300,43 @@ def make_fs(asynchronous: bool):
     fs = s3fs.S3FileSystem(asynchronous=asynchronous, skip_instance_cache=True, **_s3fs_options())
     fs.retries = S3FS_RETRIES
     return fs
+
+
+def _cached_fs(cache_dir: str):
+    """simplecache over s3 (whole chunk objects kept on local disk), wrapped for zarr's async store API."""
+    import fsspec
+
+    fs = fsspec.filesystem("simplecache", target_protocol="s3", target_options=_s3fs_options(),
+                           cache_storage=cache_dir, same_names=False, skip_instance_cache=True)
+    return _async_wrap(fs)
+
+
+def fork_safe_store(make, path: str, read_only: bool):
+    """zarr's FsspecStore whose file system is rebuilt in a forked child (a torch loader worker): fsspec's file
+    systems refuse to be used across a fork ("This class is not fork-safe")."""
+    from zarr.storage import FsspecStore
+
+    class ForkSafeFsspecStore(FsspecStore):
+        def __init__(self, fs=None, path="", read_only=False, **kw):
+            self._make, self._pid = make, os.getpid()
+            with warnings.catch_warnings():  # zarr's note that a sync fs is wrapped: intended for the cache
+                warnings.simplefilter("ignore")
+                super().__init__(fs=make() if fs is None else fs, path=path, read_only=read_only, **kw)
+
+        @property
+        def fs(self):
+            if self._pid != os.getpid():
+                self._fs, self._pid = self._make(), os.getpid()
+            return self._fs
+
+        @fs.setter
+        def fs(self, value):
+            self._fs = value
+
+        def with_read_only(self, read_only: bool = False):
+            return ForkSafeFsspecStore(path=self.path, read_only=read_only)
+
+    return ForkSafeFsspecStore(path=path, read_only=read_only)
 
 
 def _async_wrap(fs):
