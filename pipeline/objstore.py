@@ -17,6 +17,7 @@ seconds, never a hang. Every failure of the object store becomes one :class:`~sv
 """
 from __future__ import annotations
 
+import atexit
 import hashlib
 import json
 import os
@@ -297,9 +298,44 @@ def make_fs(asynchronous: bool):
         import s3fs
     except ImportError as e:
         raise StoreError(f"s3:// stores need s3fs (pip install 'svgen[s3]'): {e}") from None
-    fs = s3fs.S3FileSystem(asynchronous=asynchronous, skip_instance_cache=True, **_s3fs_options())
+    _quiet()
+    # fsspec's instance cache: one client (and one aiohttp session) per process, options and thread; it is
+    # dropped in a forked child. New instances per call would leave unclosed sessions that asyncio reports.
+    fs = s3fs.S3FileSystem(asynchronous=asynchronous, **_s3fs_options())
     fs.retries = S3FS_RETRIES
+    if asynchronous and fs not in _ASYNC_FS:
+        _ASYNC_FS.append(fs)
     return fs
+
+
+#: the async file systems zarr uses in this process: their sessions live in zarr's event loop, and nothing closes
+#: them (s3fs closes only its sync instances' sessions), so asyncio would report "Unclosed client session" at exit
+_ASYNC_FS: list = []
+
+
+def _close_async_sessions() -> None:
+    from zarr.core.sync import sync
+
+    for fs in _ASYNC_FS:
+        client = getattr(fs, "_s3", None)
+        if client is not None:
+            try:
+                sync(client.close())
+            except Exception:  # noqa: BLE001 - exiting anyway
+                pass
+    _ASYNC_FS.clear()
+
+
+atexit.register(_close_async_sessions)
+
+
+def _quiet() -> None:
+    """boto narrates credential lookups at INFO: keep its warnings unless svgen runs with --verbose."""
+    import logging
+
+    if not logging.getLogger("pipeline").isEnabledFor(logging.DEBUG):
+        for name in ("aiobotocore", "botocore", "s3fs", "fsspec"):
+            logging.getLogger(name).setLevel(logging.WARNING)
 
 
 def _cached_fs(cache_dir: str):
@@ -307,7 +343,7 @@ def _cached_fs(cache_dir: str):
     import fsspec
 
     fs = fsspec.filesystem("simplecache", target_protocol="s3", target_options=_s3fs_options(),
-                           cache_storage=cache_dir, same_names=False, skip_instance_cache=True)
+                           cache_storage=cache_dir, same_names=False)
     return _async_wrap(fs)
 
 

@@ -125,6 +125,40 @@ def test_sigkill_mid_render_then_rerun_is_identical(variants, reference, s3):  #
     assert any(n == 1 for n in writes.values())
 
 
+def test_server_stops_mid_run_then_resumes_identical(variants, reference, s3):  # noqa: F811
+    """The S3 server goes away after two chunks: the run fails with one line (no hang); with the server back the
+    same command resumes (the dead run's lock is taken over) and ends identical to a local run."""
+    from moto.server import ThreadedMotoServer
+
+    port = _closed_port()  # a second server on the same moto state, which this test can stop
+    url, fs = s3.url("s.zarr"), s3.fs()
+    cmd = _svgen("render", variants, url, *ARGS, "--workers", "0", "--storage-option",
+                 f"endpoint_url=http://127.0.0.1:{port}")
+    srv = ThreadedMotoServer(ip_address="127.0.0.1", port=port, verbose=False)
+    srv.start()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None:
+        fs.invalidate_cache()
+        if len(fs.find(f"{s3.bucket}/s.zarr/{DONE_DIR}")) >= 2:
+            break
+        time.sleep(0.05)
+    srv.stop()
+    _, err = proc.communicate(timeout=120)
+    if proc.returncode == 0:
+        pytest.skip("the run finished before the server stopped")
+    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+    assert proc.returncode == 2 and len(lines) == 1 and "unreachable" in lines[0], err
+    srv = ThreadedMotoServer(ip_address="127.0.0.1", port=port, verbose=False)
+    srv.start()
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True, env=_env(), timeout=300)
+    finally:
+        srv.stop()
+    assert r.returncode == 0, r.stderr
+    assert_same_store(s3, url, reference)
+
+
 def test_second_writer_is_refused(s3):
     """The lock object is created with a conditional put: while one writer holds it, another is refused."""
     from pipeline.svbrdf_store import array_specs
