@@ -22,6 +22,7 @@ import hashlib
 import json
 import os
 import re
+import threading
 import warnings
 from contextlib import contextmanager
 from pathlib import Path
@@ -216,16 +217,17 @@ class ObjectLocation:
         return self.root + suffix
 
     def zarr_store(self, read_only: bool, cached: bool = False, cache_tag: str = ""):
-        """zarr's FsspecStore on this prefix: async s3fs, or (``cached``) a local simplecache of the objects.
+        """zarr's FsspecStore on this prefix (async s3fs), read through a local disk cache if ``cached``.
 
         ``cache_tag`` names the content (the manifest's hash): a store rewritten under the same URL never reads
         another's cached chunks.
         """
+        store = fork_safe_store(lambda: make_fs(asynchronous=True), self.root, read_only)
         if cached and os.environ.get(CACHE_ENV, "") != "off":
             base = os.environ.get(CACHE_ENV) or str(Path.home() / ".cache" / "svgen" / "objects")
             tag = hashlib.sha256(f"{self.url}\0{cache_tag}".encode()).hexdigest()[:24]
-            return fork_safe_store(lambda: _cached_fs(str(Path(base) / tag)), self.root, read_only)
-        return fork_safe_store(lambda: make_fs(asynchronous=True), self.root, read_only)
+            return disk_cached(store, Path(base) / tag)
+        return store
 
     # small objects
     def exists(self, rel: str) -> bool:
@@ -338,13 +340,39 @@ def _quiet() -> None:
             logging.getLogger(name).setLevel(logging.WARNING)
 
 
-def _cached_fs(cache_dir: str):
-    """simplecache over s3 (whole chunk objects kept on local disk), wrapped for zarr's async store API."""
-    import fsspec
+def disk_cached(store, cache_dir: Path):
+    """A read-only zarr store that keeps every whole object it reads from ``store`` as a file in ``cache_dir``.
 
-    fs = fsspec.filesystem("simplecache", target_protocol="s3", target_options=_s3fs_options(),
-                           cache_storage=cache_dir, same_names=False)
-    return _async_wrap(fs)
+    For complete stores only (their objects never change; the directory is named after the manifest). Each file
+    is written under a temporary name and renamed, so processes sharing the directory (torch loader workers,
+    several runs) never read a half-written copy: fsspec's simplecache writes in place and was seen to hand a
+    concurrent loader worker an empty chunk.
+    """
+    from zarr.core.buffer import default_buffer_prototype
+    from zarr.storage import WrapperStore
+
+    class DiskCachedStore(WrapperStore):
+        def _with_store(self, inner):
+            return DiskCachedStore(inner)
+
+        async def get(self, key, prototype=None, byte_range=None):
+            prototype = prototype or default_buffer_prototype()
+            if byte_range is not None:
+                return await self._store.get(key, prototype, byte_range)
+            f = cache_dir / hashlib.sha256(key.encode()).hexdigest()[:32]
+            try:
+                return prototype.buffer.from_bytes(f.read_bytes())
+            except FileNotFoundError:
+                pass
+            value = await self._store.get(key, prototype)
+            if value is not None:
+                cache_dir.mkdir(parents=True, exist_ok=True)
+                tmp = f.with_name(f"{f.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+                tmp.write_bytes(value.to_bytes())
+                os.replace(tmp, f)
+            return value
+
+    return DiskCachedStore(store)
 
 
 def fork_safe_store(make, path: str, read_only: bool):
@@ -373,12 +401,6 @@ def fork_safe_store(make, path: str, read_only: bool):
             return ForkSafeFsspecStore(path=self.path, read_only=read_only)
 
     return ForkSafeFsspecStore(path=path, read_only=read_only)
-
-
-def _async_wrap(fs):
-    from fsspec.implementations.asyn_wrapper import AsyncFileSystemWrapper
-
-    return AsyncFileSystemWrapper(fs)
 
 
 def record_of(data: bytes | None) -> list | None:

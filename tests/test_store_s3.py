@@ -291,3 +291,14 @@ def test_import_to_s3_equals_local(s3, tmp_path, svgen_cli):
         assert code == 0, err
     assert_same_store(s3, s3.url("i.zarr"), tmp_path / "i.zarr")
     assert not s3.fs().find(f"{s3.bucket}/i.zarr/.import_records")
+
+
+def test_file_url_is_the_plain_local_store(tmp_path):
+    """file://PATH is the local store at PATH: the same files, byte for byte, as the plain path gives."""
+    from conftest import tree_digest
+
+    cfg = build(SampleConfig, "tiny", **SAMPLE)
+    run_sample(tmp_path / "a" / "v.zarr", cfg, workers=0)
+    run_sample(f"file://{tmp_path}/b/v.zarr", cfg, workers=0)
+    assert tree_digest(tmp_path / "a" / "v.zarr") == tree_digest(tmp_path / "b" / "v.zarr")
+    assert open_store(f"file://{tmp_path}/b/v.zarr", "variants").attrs["svgen"]["complete"] is True
