@@ -6,7 +6,13 @@ cluster on loopback (a `dask scheduler` and two `dask worker` processes started 
 views/s over the whole command (cluster start included) and in steady state (first chunk per worker
 excluded), plus whether every store is byte-identical to the 1-worker store.
 
+S3 rows (issue #12): the same render into an ``s3://`` store on a loopback S3 server (moto's ThreadedMotoServer,
+a Python server: far slower per request than MinIO or AWS, so these rows bound the protocol's overhead from
+above) against local disk with 1 and 2 workers, and the training loader's samples/s from the S3 store (cold
+chunk cache, then warm) against the local store. ``--s3-only`` runs just those on a smaller input.
+
     python3 benchmarks/bench_scaleout.py            # -> benchmarks/results/scaleout.json
+    python3 benchmarks/bench_scaleout.py --s3-only --svbrdfs 4   # -> benchmarks/results/scaleout_s3.json
 """
 from __future__ import annotations
 
@@ -57,10 +63,76 @@ def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
     return len(rest) * cfg.views / dt
 
 
+def _s3_server():
+    """A moto S3 server on 127.0.0.1 with the bucket ``bench``; AWS_* variables point this process and its
+    children at it. Returns (server, endpoint)."""
+    from moto.server import ThreadedMotoServer
+    import s3fs
+
+    srv = ThreadedMotoServer(ip_address="127.0.0.1", port=0, verbose=False)
+    srv.start()
+    host, port = srv.get_host_and_port()
+    ep = f"http://{host}:{port}"
+    os.environ.update({"AWS_ACCESS_KEY_ID": "bench", "AWS_SECRET_ACCESS_KEY": "bench",
+                       "AWS_DEFAULT_REGION": "us-east-1", "AWS_ENDPOINT_URL": ep})
+    s3fs.S3FileSystem(endpoint_url=ep, skip_instance_cache=True).mkdir("bench")
+    return srv, ep
+
+
+def _loader_rate(path, steps: int, batch: int, workers: int) -> float:
+    """Training-loader samples/s over ``steps`` batches (the first batch, worker start-up, excluded)."""
+    import time
+
+    from pipeline.render.store import RendersReader
+    from train.data import PairDataset, make_loader
+
+    src = RendersReader(path)
+    it = iter(make_loader(PairDataset(src, range(len(src)), 128, seed=0), batch, 0, steps + 1, workers=workers))
+    next(it)
+    t = time.perf_counter()
+    for _ in it:
+        pass
+    return steps * batch / (time.perf_counter() - t)
+
+
+def s3_rows(inp: Path, tmp: Path, n_views: int, steps: int = 20, batch: int = 8) -> dict:
+    """Render views/s local vs loopback S3 (1 and 2 workers) and loader samples/s local vs S3 (cold, warm)."""
+    import numpy as np
+
+    srv, ep = _s3_server()
+    try:
+        rows = []
+        for w in (1, 2):
+            for where, out in (("local disk", tmp / f"s3cmp_local{w}.zarr"), ("loopback S3", f"s3://bench/r{w}.zarr")):
+                wall = _render(inp, out, ["--workers", str(w)])
+                rows.append({"config": f"render to {where}, {w} worker{'s' if w > 1 else ''}", "workers": w,
+                             "wall_s": wall, "views_per_s_total": n_views / wall})
+        from pipeline.store import open_store
+
+        a, b = open_store(tmp / "s3cmp_local1.zarr", "renders"), open_store("s3://bench/r2.zarr", "renders")
+        same = all(np.array_equal(a[k][:], b[k][:]) for k in a)
+        loader = []
+        for w in (0, 2):
+            local = _loader_rate(tmp / "s3cmp_local1.zarr", steps, batch, w)
+            os.environ["SVGEN_OBJECT_CACHE"] = str(tmp / f"cache{w}")
+            cold = _loader_rate("s3://bench/r1.zarr", steps, batch, w)
+            warm = _loader_rate("s3://bench/r1.zarr", steps, batch, w)
+            loader.append({"loader_workers": w, "batch": batch, "crop": 128, "local_samples_per_s": local,
+                           "s3_cold_cache_samples_per_s": cold, "s3_warm_cache_samples_per_s": warm})
+        return {"s3_server": "moto ThreadedMotoServer on 127.0.0.1 (Python; a lower bound for a real S3 service)",
+                "s3_rows": rows, "s3_equals_local": bool(same), "loader_rows": loader}
+    finally:
+        srv.stop()
+
+
 def main(argv=None) -> None:
     ap = parser(__doc__)
-    ap.add_argument("--out", default=str(RESULTS / "scaleout.json"))
+    ap.add_argument("--out", default=None, help="results file (default: scaleout.json, or scaleout_s3.json)")
+    ap.add_argument("--s3-only", action="store_true", help="only the S3 rows (render and loader, S3 vs local)")
+    ap.add_argument("--svbrdfs", type=int, default=2 * N_PRESET, help="--s3-only: SVBRDFs rendered (2 variants per preset)")
     args = ap.parse_args(argv)
+    if args.s3_only:
+        return _main_s3(args)
     from pipeline.config import SampleConfig
     from svcore.config import build
     from pipeline.sample import run_sample
@@ -104,11 +176,41 @@ def main(argv=None) -> None:
         ref = tree_digest(tmp / "local1.zarr")
         identical = all(tree_digest(tmp / n) == ref for n in ("local2.zarr", "dist.zarr"))
         res = {"benchmark": "render_scaleout", "svbrdfs": len(presets) * 2, "views": n_views, "res": 256,
-               "rows": rows, "stores_identical": identical}
-        write_results(args.out, res, args.note)
+               "rows": rows, "stores_identical": identical, **s3_rows(inp, tmp, n_views)}
+        write_results(args.out or str(RESULTS / "scaleout.json"), res, args.note)
         for r in rows:
             print(f"{r['config']:50s} {r['views_per_s_total']:6.1f} views/s total, {r['views_per_s_steady']:6.1f} steady")
         print("identical stores:", identical)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _inputs(tmp: Path, svbrdfs: int) -> tuple[Path, int]:
+    from pipeline.config import SampleConfig
+    from pipeline.sample import run_sample
+    from svcore.config import build
+
+    import materials
+
+    n_preset = max(1, svbrdfs // 2)
+    presets = tuple(p.name for p in materials.presets()[:: max(1, len(materials.presets()) // n_preset)][:n_preset])
+    inp = tmp / "v.zarr"
+    run_sample(inp, build(SampleConfig, presets=presets, per_preset=2), workers=0)
+    return inp, len(presets) * 2 * 10
+
+
+def _main_s3(args) -> None:
+    tmp = Path(tempfile.mkdtemp(prefix="svgen-scaleout-s3-"))
+    try:
+        inp, n_views = _inputs(tmp, args.svbrdfs)
+        res = {"benchmark": "render_scaleout_s3", "svbrdfs": n_views // 10, "views": n_views, "res": 256,
+               **s3_rows(inp, tmp, n_views)}
+        write_results(args.out or str(RESULTS / "scaleout_s3.json"), res, args.note)
+        for r in res["s3_rows"]:
+            print(f"{r['config']:40s} {r['views_per_s_total']:6.2f} views/s")
+        for r in res["loader_rows"]:
+            print(r)
+        print("S3 store equals local:", res["s3_equals_local"])
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 

@@ -43,7 +43,9 @@ def free_disk(path: str | os.PathLike) -> int:
     """Free bytes of the file system that will hold ``path`` (its nearest existing ancestor)."""
     import shutil
 
-    p = Path(path).resolve()
+    from .objstore import local_path
+
+    p = Path(local_path(path)).resolve()
     while not p.exists() and p != p.parent:
         p = p.parent
     return int(shutil.disk_usage(p).free)
@@ -73,6 +75,10 @@ def check_store_size(out, n: int, chunk: int, arrays) -> int:
         raise ConfigError(f"chunk {chunk} needs about {task / GiB:.1f} GiB per task ({per / 2**20:.2f} MiB per sample "
                           f"x {TASK_FACTOR} while assembling and compressing), more than the {mem / GiB:.1f} GiB of "
                           "memory available; lower the chunk")
+    from .objstore import is_object_url
+
+    if is_object_url(out):  # a bucket has no free-space figure to check against
+        return task
     need, free = n * per / MAX_COMPRESSION, free_disk(out)
     if need > free:
         raise ConfigError(f"{n} samples need at least {need / GiB:.3g} GiB of disk ({per / 2**20:.2f} MiB raw per "

@@ -12,7 +12,8 @@ WORKERS_ENV = "SVGEN_WORKERS"
 
 
 def parallel_options(f):
-    """--workers (or SVGEN_WORKERS) / --scheduler-address."""
+    """--workers (or SVGEN_WORKERS) / --scheduler-address (and --storage-option: every stage command takes store arguments)."""
+    f = storage_option(f)
     f = click.option("--scheduler-address", default=None, metavar="ADDR",
                      help="A running dask.distributed scheduler (tcp://host:port); default: DASK_SCHEDULER_ADDRESS, "
                           "else local worker processes.")(f)
@@ -21,3 +22,22 @@ def parallel_options(f):
                      help=f"Local dask worker processes (0: run in this process, no dask); without the flag, "
                           f"{WORKERS_ENV} when set.")(f)
     return f
+
+
+def storage_option(f):
+    """--storage-option KEY=VALUE (repeatable): s3fs options of s3:// stores (endpoint_url, key, secret, ...).
+
+    Applied when parsed (into this process's environment, which local dask workers inherit) and never recorded.
+    """
+    def apply(ctx, param, value):
+        if value:
+            from .objstore import set_storage_options
+
+            set_storage_options(value)
+        return value
+
+    return click.option("--storage-option", "storage_options", multiple=True, metavar="KEY=VALUE",
+                        expose_value=False, callback=apply,
+                        help="An s3fs option for s3:// stores (repeatable; dotted keys nest, values are YAML), "
+                             "e.g. endpoint_url=http://127.0.0.1:9000. Credentials: prefer AWS_* variables; "
+                             "options are never recorded.")(f)

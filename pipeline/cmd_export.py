@@ -3,8 +3,11 @@ from __future__ import annotations
 
 import click
 
+from .cli_options import storage_option
+
 
 @click.command()
+@storage_option
 @click.argument("renders", type=click.Path())
 @click.argument("out", type=click.Path())
 @click.option("--format", "fmt", type=click.Choice(["deschaintre", "exr", "png"]), default="deschaintre",

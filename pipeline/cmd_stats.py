@@ -3,8 +3,11 @@ from __future__ import annotations
 
 import click
 
+from .cli_options import storage_option
+
 
 @click.command()
+@storage_option
 @click.argument("stores", nargs=-1, required=True, type=click.Path())
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Folder for stats.json, stats.md and stats.png [default: print the table only].")

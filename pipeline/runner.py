@@ -20,6 +20,7 @@ from typing import Any, Callable, Union
 
 from svcore.log import get_logger
 
+from .objstore import is_object_url, local_path
 from .parallel import run_chunks
 from .store import ArraySpec, StoreWriter
 
@@ -67,7 +68,7 @@ class Stage:
         Raises:
             StoreError: ``out`` exists or lies inside an input. ConfigError: a chunk task or the store cannot fit.
         """
-        attrs = self.attrs(Path(out)) if callable(self.attrs) else self.attrs
+        attrs = self.attrs(out if is_object_url(out) else Path(local_path(out))) if callable(self.attrs) else self.attrs
         return StoreWriter(out, self.kind, self.n, self.chunk, self.arrays, self.config, attrs, inputs=self.inputs)
 
     def task_for(self, w: StoreWriter) -> Callable[[int, int], int]:

@@ -55,6 +55,8 @@ from zarr.codecs import Crc32cCodec, ZstdCodec
 from svcore.errors import StoreError
 from svcore.versions import library_versions
 
+from .objstore import is_object_url, local_path, normalize_url
+
 SCHEMA_VERSION = 2  # 2: chunk manifest (svgen_manifest.json) written at finalize
 MANIFEST = "svgen_manifest.json"
 CREATING_SUFFIX = ".creating"
@@ -126,13 +128,19 @@ def _store_versions() -> dict[str, str]:
 
 
 def partial_path(path: str | os.PathLike) -> Path:
-    p = Path(path)
+    p = Path(local_path(path))
     return p.with_name(p.name + PARTIAL_SUFFIX)
 
 
 def inside(path: str | os.PathLike, other: str | os.PathLike) -> bool:
-    """Whether ``path`` is ``other`` or lies under it (both resolved, so spelling and symlinks do not matter)."""
-    a, b = Path(path).resolve(), Path(other).resolve()
+    """Whether ``path`` is ``other`` or lies under it (both resolved, so spelling and symlinks do not matter;
+    an object-store URL is inside another only by its key prefix, never inside a local path)."""
+    if is_object_url(path) or is_object_url(other):
+        if not (is_object_url(path) and is_object_url(other)):
+            return False
+        a, b = normalize_url(str(path)), normalize_url(str(other))
+        return a == b or a.startswith(b + "/")
+    a, b = Path(local_path(path)).resolve(), Path(local_path(other)).resolve()
     return a == b or b in a.parents
 
 
@@ -147,7 +155,7 @@ def refuse_inside(out: str | os.PathLike, inputs) -> None:
     for i in ([inputs] if isinstance(inputs, (str, bytes)) or hasattr(inputs, "__fspath__") else list(inputs)):
         if i is None:
             continue
-        for o in (Path(out), partial_path(out)):
+        for o in ((out,) if is_object_url(out) else (Path(local_path(out)), partial_path(out))):
             if inside(o, i) or inside(i, o):
                 raise StoreError(f"output {out} lies inside input {i} (or contains it): a command never writes into "
                                  "its input; choose an output outside it")
@@ -155,8 +163,13 @@ def refuse_inside(out: str | os.PathLike, inputs) -> None:
 
 def recorded_path(path: str | os.PathLike, out: str | os.PathLike) -> str:
     """How a store records an input path: relative to the output's directory, resolved first, so the absolute and
-    the relative spellings of one input record the same string (and a store moved with its inputs stays valid)."""
-    return os.path.relpath(Path(path).resolve(), Path(out).resolve().parent)
+    the relative spellings of one input record the same string (and a store moved with its inputs stays valid).
+    An object-store input is recorded as its URL; a local input of an object-store output as its resolved path."""
+    if is_object_url(path):
+        return normalize_url(str(path))
+    if is_object_url(out):
+        return str(Path(local_path(path)).resolve())
+    return os.path.relpath(Path(local_path(path)).resolve(), Path(local_path(out)).resolve().parent)
 
 
 def _compressors():
@@ -178,9 +191,16 @@ class StoreWriter:
         inputs: the stores this run reads; an output inside one of them is refused.
     """
 
+    def __new__(cls, path, *args, **kwargs):
+        if cls is StoreWriter and is_object_url(path):  # s3://…: the commit protocol without rename or flock
+            from .store_object import ObjectStoreWriter
+
+            return super().__new__(ObjectStoreWriter)
+        return super().__new__(cls)
+
     def __init__(self, path, kind: str, n: int, chunk: int, arrays: dict[str, ArraySpec], config: dict,
                  attrs: dict | None = None, inputs=()):
-        self.final = Path(path)
+        self.final = Path(local_path(path))
         self.partial = partial_path(self.final)
         self.lockfile = self.final.with_name(self.final.name + LOCK_SUFFIX)
         self.kind, self.n, self.chunk = kind, int(n), int(chunk)
@@ -362,6 +382,12 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
         start: first sample index of the chunk.
         data: array name -> (n_in_chunk, *sample_shape) values already in the on-disk dtype.
     """
+    if is_object_url(partial):
+        from .store_object import write_chunk_object
+
+        write_chunk_object(str(partial), c, start, data)
+        _kill_hook("chunk")
+        return
     g = zarr.open_group(partial, mode="r+")
     for name, arr in data.items():
         g[name][start:start + len(arr)] = arr
@@ -378,6 +404,47 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
         import errno
 
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(Path(partial) / DONE_DIR))
+
+
+def side_write(partial, rel: str, data: bytes) -> None:
+    """Write a stage's own object ``rel`` (e.g. per-chunk records) into an unfinished store, atomically: a temporary
+    file renamed into place locally, one PUT on an object store."""
+    if is_object_url(partial):
+        from .objstore import ObjectLocation, s3_errors
+
+        loc = ObjectLocation(str(partial))
+        with s3_errors(loc.url, "write"):
+            loc.write(rel, data)
+        return
+    target = Path(partial) / rel
+    target.parent.mkdir(exist_ok=True)
+    tmp = target.with_suffix(".tmp")
+    tmp.write_bytes(data)
+    os.replace(tmp, target)
+
+
+def side_read(partial, rel: str) -> bytes:
+    """Read a stage's own object written by :func:`side_write`."""
+    if is_object_url(partial):
+        from .objstore import ObjectLocation, s3_errors
+
+        loc = ObjectLocation(str(partial))
+        with s3_errors(loc.url, "read"):
+            return loc.read(rel)
+    return (Path(partial) / rel).read_bytes()
+
+
+def side_remove(partial, rel_dir: str) -> None:
+    """Remove a stage's own folder of objects (before finalize: it is not part of the finished store)."""
+    if is_object_url(partial):
+        from .objstore import ObjectLocation, s3_errors
+
+        loc = ObjectLocation(str(partial))
+        with s3_errors(loc.url, "clean"):
+            for k in loc.sizes(rel_dir):
+                loc.delete(loc.key(k))
+        return
+    shutil.rmtree(Path(partial) / rel_dir)
 
 
 def _kill_hook(moment: str) -> None:
@@ -434,8 +501,12 @@ def open_store(path: str | os.PathLike, kind: str | tuple[str, ...]) -> zarr.Gro
     Raises:
         StoreError: missing, still partial, foreign, of another kind, newer schema, or incomplete.
     """
-    p = Path(path)
     kinds = (kind,) if isinstance(kind, str) else tuple(kind)
+    if is_object_url(path):
+        from .store_object import open_object_store
+
+        return open_object_store(str(path), kinds)
+    p = Path(local_path(path))
     want = " or ".join(kinds)
     if p.name.endswith(PARTIAL_SUFFIX) or p.name.endswith(PARTIAL_SUFFIX + CREATING_SUFFIX):
         final = p.with_name(p.name[:p.name.rindex(PARTIAL_SUFFIX)])
@@ -452,6 +523,19 @@ def open_store(path: str | os.PathLike, kind: str | tuple[str, ...]) -> zarr.Gro
         meta = dict(g.attrs).get("svgen")
     except Exception as e:
         raise StoreError(f"{p} cannot be opened as a zarr v3 store: {_one_line(e)}") from None
+    check_meta(p, g, meta, kinds, f"{p} is not marked complete")
+    check_chunks(p, g, meta)
+    return g
+
+
+def check_meta(p, g: zarr.Group, meta, kinds: tuple[str, ...], incomplete: str) -> None:
+    """The checks of every open, local or object store: an svgen store of a wanted kind, a schema this svgen
+    reads, marked complete (else the line ``incomplete``), every array present.
+
+    Raises:
+        StoreError: the first check that fails.
+    """
+    want = " or ".join(kinds)
     if not isinstance(meta, dict) or "kind" not in meta:
         raise StoreError(f"{p} is not an svgen store (no svgen attributes); expected a {want} store")
     if meta["kind"] not in kinds:
@@ -459,12 +543,10 @@ def open_store(path: str | os.PathLike, kind: str | tuple[str, ...]) -> zarr.Gro
     if meta.get("schema_version", 0) > SCHEMA_VERSION:
         raise StoreError(f"{p} has schema version {meta['schema_version']}, newer than this svgen ({SCHEMA_VERSION})")
     if not meta.get("complete"):
-        raise StoreError(f"{p} is not marked complete")
+        raise StoreError(incomplete)
     for name in meta.get("arrays", {}):
         if name not in g:
             raise StoreError(f"{p} lacks its array {name!r}")
-    check_chunks(p, g, meta)
-    return g
 
 
 def _manifest(p: Path, meta: dict) -> dict:
@@ -490,15 +572,28 @@ def check_chunks(path: str | os.PathLike, g: zarr.Group, meta: dict) -> None:
     """
     p = Path(path)
     man = _manifest(p, meta)
-    n, chunk = int(man["n"]), int(man["chunk"])
     stat = os.stat
+
+    def size_of(name: str, key: str) -> int | None:
+        try:
+            return stat(f"{p}{os.sep}{name}{os.sep}{key}").st_size
+        except FileNotFoundError:
+            return None
+
+    compare_sizes(p, g, man, size_of)
+
+
+def compare_sizes(p, g: zarr.Group, man: dict, size_of) -> None:
+    """Hold every chunk's size (``size_of(array, chunk key)``, None: no chunk object) to the manifest.
+
+    Raises:
+        StoreError: naming the array, the chunk and its samples.
+    """
+    n, chunk = int(man["n"]), int(man["chunk"])
     for name, recs in man["arrays"].items():
-        arr, base = g[name], f"{p}{os.sep}{name}{os.sep}"
+        arr = g[name]
         for c, rec in enumerate(recs):
-            try:
-                size = stat(base + _chunk_key(arr, c)).st_size
-            except FileNotFoundError:
-                size = None
+            size = size_of(name, _chunk_key(arr, c))
             if (rec is None) != (size is None) or (rec is not None and rec[0] != size):
                 a, b = c * chunk, min(n, (c + 1) * chunk)
                 what = "is missing chunk" if size is None else \
@@ -517,7 +612,11 @@ def verify_store(path: str | os.PathLike) -> int:
         StoreError: the first chunk whose bytes differ, naming the array and the samples.
     """
     g = open_store(path, tuple(_ALL_KINDS))
-    p = Path(path)
+    if is_object_url(path):
+        from .store_object import verify_object_store
+
+        return verify_object_store(str(path), g)
+    p = Path(local_path(path))
     man = json.loads((p / MANIFEST).read_text())
     n, chunk, checked = int(man["n"]), int(man["chunk"]), 0
     for name, recs in man["arrays"].items():

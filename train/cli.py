@@ -9,6 +9,7 @@ from pathlib import Path
 
 import click
 
+from pipeline.cli_options import storage_option
 from svcore.cli import config_command, run_cli, version_option
 from svcore.log import configure, get_logger
 
@@ -34,6 +35,7 @@ def svtrain(verbose: bool) -> None:
                          "compute.global_batch": "--global-batch"},
                 envvars={"data.workers": "SVGEN_WORKERS"})
 @click.option("--out", default=DEFAULT_RUN, show_default=True, help="Run directory.")
+@storage_option
 @click.option("--no-resume", is_flag=True, help="Start over even if the run directory has a checkpoint.")
 @click.option("--resume-if-unchanged", is_flag=True,
               help="Continue OUT/checkpoint.pt only if it was trained from this config, data and code; otherwise "
@@ -84,6 +86,7 @@ svtrain.add_command(fit)
 @click.option("--train-store", default=None,
               help="The run's training store, if it moved (default: found through the run's run.json).")
 @click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
+@storage_option
 def eval_(ckpt, suite, store, limit, out, train_store, device):
     """RMSE per map and of re-renderings, beside the baselines (eval.json, eval.md)."""
     from .evaluate import markdown, run_eval

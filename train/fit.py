@@ -61,13 +61,20 @@ def provenance(cfg: Config, src) -> dict:
     hash, or the synthetic source's settings) and the library versions (stores record the same)."""
     if cfg.data.store:
         meta = getattr(src, "attrs", {}).get("svgen", {})
-        data = {"store": str(cfg.data.store), "store_resolved": str(Path(cfg.data.store).resolve()),
+        data = {"store": str(cfg.data.store), "store_resolved": _resolved(cfg.data.store),
                 "kind": meta.get("kind"), "config_hash": meta.get("config_hash"), "n": meta.get("n")}
     else:  # the source actually used (a caller may pass its own), not the config's synthetic_* defaults
         data = {"synthetic": {k: getattr(src, a, None) for k, a in (("samples", "n"), ("size", "size"),
                                                                     ("materials", "n_materials"), ("seed", "seed"),
                                                                     ("kind", "kind"))}}
     return {"config_preset": cfg.preset, "data": data, "versions": library_versions()}
+
+
+def _resolved(store) -> str:
+    """A store argument as recorded: an object-store URL as given, a local path resolved."""
+    from pipeline.objstore import is_object_url, local_path
+
+    return str(store) if is_object_url(store) else str(Path(local_path(store)).resolve())
 
 
 def lr_at(o: OptimConfig, step: int) -> float:

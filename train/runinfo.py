@@ -19,9 +19,13 @@ RUN_FILE = "run.json"
 
 def record(run_dir: str | os.PathLike, store: str | None) -> None:
     """Write ``run_dir/run.json``: the training store as given and relative to the run directory."""
+    from pipeline.objstore import is_object_url, local_path, normalize_url
+
     run = Path(run_dir)
+    # an object-store URL is the same from anywhere: recorded as it is
     info = {"train_store": None if store is None else
-            {"as_given": str(store), "from_run": os.path.relpath(Path(store).resolve(), run.resolve())}}
+            {"as_given": str(store), "from_run": normalize_url(str(store)) if is_object_url(store) else
+             os.path.relpath(Path(local_path(store)).resolve(), run.resolve())}}
     tmp = run / (RUN_FILE + ".tmp")
     tmp.write_text(json.dumps(info, indent=1) + "\n")
     os.replace(tmp, run / RUN_FILE)
@@ -75,6 +79,10 @@ def train_store(checkpoint_path: str | os.PathLike, store: str | None, override:
         return str(override)
     if store is None:
         return None
+    from pipeline.objstore import is_object_url
+
+    if is_object_url(store):
+        return str(store)
     run = run_dir_of(checkpoint_path)
     tried = []
     try:

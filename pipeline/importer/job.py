@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-import shutil
 import zlib
 from pathlib import Path
 
@@ -23,7 +21,7 @@ from svcore.errors import ConfigError
 
 from ..config import ImportConfig
 from ..runner import Stage
-from ..store import recorded_path, write_chunk
+from ..store import recorded_path, side_read, side_remove, side_write, write_chunk
 from ..svbrdf_store import array_specs as svbrdf_array_specs
 from ..svbrdf_store import encode_maps
 from . import ImportInputError
@@ -147,11 +145,8 @@ def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource
         data["source_seed"] = data.pop("seed")
         data["input"] = np.zeros(n, np.int16)
         data["category"] = np.full(n, -1, np.int16)
-    rdir = Path(partial) / RECORDS
-    rdir.mkdir(exist_ok=True)
-    tmp = rdir / f"{c}.tmp"
-    tmp.write_text(json.dumps(records, sort_keys=True))
-    os.replace(tmp, rdir / f"{c}.json")  # before write_chunk's marker: a marked chunk always has its record
+    # before write_chunk's marker: a marked chunk always has its record
+    side_write(partial, f"{RECORDS}/{c}.json", json.dumps(records, sort_keys=True).encode())
     write_chunk(partial, c, start, data)
     return n
 
@@ -159,12 +154,11 @@ def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource
 def _gather_records(described: list[dict], n_chunks: int, out: list):
     """The stage's finish hook: per-chunk records -> the ``materials`` attribute (also appended to ``out``)."""
 
-    def finish(partial: Path) -> dict:
-        rdir = partial / RECORDS
-        recs = [r for c in range(n_chunks) for r in json.loads((rdir / f"{c}.json").read_text())]
+    def finish(partial: Path | str) -> dict:
+        recs = [r for c in range(n_chunks) for r in json.loads(side_read(partial, f"{RECORDS}/{c}.json"))]
         # source folders recorded relative to the store's directory (the partial's is the final's), like every input
         out.extend({**d, "source": recorded_path(d["source"], partial), **r} for d, r in zip(described, recs))
-        shutil.rmtree(rdir)
+        side_remove(partial, RECORDS)
         return {"materials": out}
 
     return finish
