@@ -1,0 +1,337 @@
+"""Codec and sharding of the stores (issue #12): bytes and CPU-s per view against objects per 10,000 views.
+
+Real rendered data, read-only: the first ``--samples`` SVBRDFs of a renders store (every array a renders store
+holds: the uint8 sRGB images (V, R, R, 3), the view parameters, the uint16 base maps and the provenance columns)
+and, with ``--variants``, of a variants store (its maps and columns, per variant). Each array is rewritten
+exactly as :func:`pipeline.store.write_chunk` writes it -- one aligned region per dask task into a
+``zarr.Array`` created first -- with every candidate codec pipeline (:data:`CODECS`, each ending in CRC32C like
+the stores today) in every layout (:func:`layouts`):
+
+* ``chunked``: today, unsharded, one chunk per task (the stage's ``chunk``: render 2 SVBRDFs, sample 8);
+* ``shard=task``: zarr's sharding codec, one shard per today's task, inner chunks of one sample;
+* ``shard=N``: one shard per larger task, N samples (the smallest power of two that keeps the objects at or under
+  the aim of 200 per 10,000 views), inner chunks of one sample, so a random read still decodes one sample.
+
+Per candidate and layout: bytes per view (the files written, zarr.json excluded), CPU seconds per view to
+encode + write (``time.process_time`` around the region writes only: all threads of this process, zarr's
+I/O and codec threads included), to read + decode (whole arrays; the files are in the page cache), the
+median of ``--reps`` fresh writes, and objects per 10,000 views counted from the files written. Every
+candidate's read-back is compared with the input (``lossless`` must hold: the run fails otherwise).
+
+The default is chosen by a stated rule (:func:`choose`) and written into the results with the rule.
+
+Writes benchmarks/results/codecs.json and codecs.csv. Usage:
+    python3 benchmarks/bench_codecs.py [--renders data/renders.zarr] [--variants data/variants.zarr]
+                                       [--samples 64] [--reps 3] [--note ...]
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import statistics
+import tempfile
+import time
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import zarr
+from zarr.codecs import BloscCodec, Crc32cCodec, TransposeCodec, ZstdCodec
+from zarr.codecs.numcodecs import Delta
+
+from pipeline.config import RenderConfig, SampleConfig
+from pipeline.store import open_store
+from svcore.config import build
+from svcore.errors import StoreError
+
+from harness import RESULTS, ROOT, parser, write_csv, write_results
+
+# numcodecs' Delta is not in the zarr v3 spec (zarr says so on every use); the results record it per candidate
+warnings.filterwarnings("ignore", message="Numcodecs codecs are not in the Zarr version 3 specification")
+
+#: the issue's aims (#12): per 256^2 view, end to end, and objects of a store
+AIM_CPU_S_PER_VIEW = 0.010
+AIM_BYTES_PER_VIEW = 150_000
+AIM_OBJECTS_PER_10K_VIEWS = 200
+TODAY = "zstd5"
+
+
+@dataclass(frozen=True)
+class Codec:
+    """A candidate codec pipeline for one array (zarr v3 ``filters`` + ``compressors``).
+
+    Attributes:
+        name: short id (the chart's label).
+        family: zstd, blosc or delta (the chart's colour).
+        about: what it is, in words.
+        make: (numpy dtype, ndim) -> (filters, compressors) for that array.
+        in_spec: whether every codec is in the zarr v3 spec (readable by any zarr v3 implementation).
+    """
+
+    name: str
+    family: str
+    about: str
+    make: Callable[[np.dtype, int], tuple[list, list]]
+    in_spec: bool = True
+
+
+def _plain(*compressors):
+    return lambda dtype, ndim: ([], [*compressors, Crc32cCodec()])
+
+
+def _blosc(cname: str, shuffle: str):
+    return lambda dtype, ndim: ([], [BloscCodec(cname=cname, clevel=5, shuffle=shuffle), Crc32cCodec()])
+
+
+def _delta(*compressors):
+    """Channel-planar left-neighbour prediction (a PNG "Sub"-like filter) for images and maps: the chunk is
+    transposed so each channel plane is contiguous, then numcodecs' Delta (wrapping integer differences, exact)
+    runs over it. Scalars and small tables get the compressors only."""
+
+    def make(dtype, ndim):
+        if ndim < 4 or dtype.kind != "u":
+            return [], [*compressors, Crc32cCodec()]
+        order = (*range(ndim - 3), ndim - 1, ndim - 3, ndim - 2)  # (..., H, W, C) -> (..., C, H, W)
+        return [TransposeCodec(order=order), Delta(dtype=dtype.str)], [*compressors, Crc32cCodec()]
+
+    return make
+
+
+#: name -> candidate: the registry the benchmark runs through
+CODECS: dict[str, Codec] = {c.name: c for c in (
+    Codec("zstd1", "zstd", "zstd level 1", _plain(ZstdCodec(level=1))),
+    Codec("zstd3", "zstd", "zstd level 3", _plain(ZstdCodec(level=3))),
+    Codec("zstd5", "zstd", "zstd level 5 (today: pipeline/store.py)", _plain(ZstdCodec(level=5))),
+    Codec("zstd9", "zstd", "zstd level 9", _plain(ZstdCodec(level=9))),
+    Codec("blosc-zstd-shuf", "blosc", "blosc zstd clevel 5, byte-shuffle", _blosc("zstd", "shuffle")),
+    Codec("blosc-zstd-bit", "blosc", "blosc zstd clevel 5, bit-shuffle", _blosc("zstd", "bitshuffle")),
+    Codec("blosc-lz4-shuf", "blosc", "blosc lz4 clevel 5, byte-shuffle", _blosc("lz4", "shuffle")),
+    Codec("blosc-lz4-bit", "blosc", "blosc lz4 clevel 5, bit-shuffle", _blosc("lz4", "bitshuffle")),
+    Codec("delta-zstd1", "delta", "planar left-delta + zstd level 1", _delta(ZstdCodec(level=1)), False),
+    Codec("delta-zstd3", "delta", "planar left-delta + zstd level 3", _delta(ZstdCodec(level=3)), False),
+    Codec("delta-blosc-zstd-shuf", "delta", "planar left-delta + blosc zstd clevel 5 byte-shuffle",
+          _delta(BloscCodec(cname="zstd", clevel=5, shuffle="shuffle")), False),
+)}
+
+
+@dataclass(frozen=True)
+class Layout:
+    """How an array is cut into objects.
+
+    Attributes:
+        name: short id.
+        task: samples one dask task writes (one region write per task).
+        inner: samples per (inner) chunk: the unit a random read decodes.
+        sharded: whether the task's region is one shard holding ``task // inner`` inner chunks.
+    """
+
+    name: str
+    task: int
+    inner: int
+    sharded: bool
+
+
+def layouts(today_task: int, arrays: int, views: int, most: int) -> list[Layout]:
+    """Today's chunks, sharding at today's task, and sharding at the smallest power-of-two task that meets the
+    objects aim (``arrays`` objects per task, ``views`` views per sample), at most ``most`` samples (the
+    samples measured: a variants store, one "view" per sample, would need more than it holds)."""
+    need = math.ceil(arrays * 10_000 / (views * AIM_OBJECTS_PER_10K_VIEWS))
+    big = min(1 << max(0, math.ceil(math.log2(need))), 1 << int(math.log2(most)))
+    return [Layout("chunked", today_task, today_task, False),
+            Layout("shard=task", today_task, 1, True),
+            Layout(f"shard={big}", big, 1, True)]
+
+
+def _files(root: Path) -> list[Path]:
+    """The chunk/shard files of a store (every file but zarr.json metadata)."""
+    return [p for p in root.rglob("*") if p.is_file() and p.name != "zarr.json"]
+
+
+def write_store(root: Path, data: dict[str, np.ndarray], codec: Codec, layout: Layout) -> float:
+    """Create the arrays (untimed), then write every task's region of every array; returns the CPU seconds of
+    the writes (this process, all threads)."""
+    g = zarr.open_group(root, mode="w", zarr_format=3)
+    arrays = {}
+    for name, a in data.items():
+        filters, compressors = codec.make(a.dtype, a.ndim)
+        rest = a.shape[1:]
+        arrays[name] = g.create_array(
+            name, shape=a.shape, dtype=a.dtype, fill_value=0, filters=filters, compressors=compressors,
+            chunks=(layout.inner, *rest), shards=(layout.task, *rest) if layout.sharded else None)
+    n = len(next(iter(data.values())))
+    c0 = time.process_time()
+    for start in range(0, n, layout.task):  # one task: every array's region, as pipeline.store.write_chunk does
+        for name, a in data.items():
+            arrays[name][start:start + layout.task] = a[start:start + layout.task]
+    return time.process_time() - c0
+
+
+def read_store(root: Path, names) -> tuple[float, dict[str, np.ndarray]]:
+    """Open and read every array whole; returns (CPU seconds, arrays)."""
+    c0 = time.process_time()
+    g = zarr.open_group(root, mode="r")
+    out = {name: g[name][:] for name in names}
+    return time.process_time() - c0, out
+
+
+def measure(data: dict[str, np.ndarray], views: int, codec: Codec, layout: Layout, reps: int, tmp: Path) -> dict:
+    """One candidate in one layout: medians over ``reps`` fresh writes and reads; verifies the read-back."""
+    n = len(next(iter(data.values())))
+    n_views = n * views
+    w_cpu, r_cpu = [], []
+    for r in range(reps):
+        root = tmp / f"{codec.name}-{layout.name}-{r}.zarr"
+        w_cpu.append(write_store(root, data, codec, layout))
+        cpu, back = read_store(root, data)
+        r_cpu.append(cpu)
+        # bit for bit (NaN padding of a variants store's params included)
+        bad = [k for k in data if back[k].dtype != data[k].dtype or back[k].shape != data[k].shape
+               or back[k].tobytes() != data[k].tobytes()]
+        if bad:
+            raise AssertionError(f"{codec.name} in layout {layout.name} is not lossless on {bad}")
+        files = _files(root)
+        per_array = {k: sum(p.stat().st_size for p in files if p.relative_to(root).parts[0] == k) for k in data}
+        n_files = len(files)
+        if r < reps - 1:
+            shutil.rmtree(root)
+    shutil.rmtree(root)
+    total = sum(per_array.values())
+    raw = sum(a.nbytes for a in data.values())
+    w, rd = statistics.median(w_cpu), statistics.median(r_cpu)
+    return {
+        "codec": codec.name, "family": codec.family, "layout": layout.name, "sharded": layout.sharded,
+        "task_samples": layout.task, "inner_chunk_samples": layout.inner,
+        "bytes_per_view": total / n_views, "ratio": raw / total,
+        "write_cpu_s_per_view": w / n_views, "read_cpu_s_per_view": rd / n_views,
+        "write_read_cpu_s_per_view": (w + rd) / n_views,
+        "objects": n_files, "objects_per_10k_views": n_files * 10_000 / n_views,
+        "bytes_per_view_by_array": {k: v / n_views for k, v in per_array.items()},
+        "write_cpu_s_reps": w_cpu, "read_cpu_s_reps": r_cpu, "lossless": True,
+    }
+
+
+def load(path: Path, kind: str, samples: int) -> dict[str, np.ndarray]:
+    """The first ``samples`` samples of every array of a complete svgen store (read-only)."""
+    g = open_store(path, kind)
+    return {name: np.ascontiguousarray(a[:samples]) for name, a in sorted(g.arrays())}
+
+
+def choose(rows: list[dict], render_cpu_s_per_view: float | None) -> dict:
+    """The rule: among the rows meeting the bytes aim (<= 150 KB per view) and the objects aim (<= 200 per
+    10,000 views), the smallest write + read CPU per view; ties (within 5 %) go to fewer bytes. Candidates whose
+    codecs are all in the zarr v3 spec only, so any zarr v3 reader opens the stores. Without such a row (the
+    bytes aim missed by every codec), the rule falls back to the smallest bytes among rows within 25 % of the
+    cheapest CPU of the objects-aim layout, and says so."""
+    ok_layout = [r for r in rows if r["objects_per_10k_views"] <= AIM_OBJECTS_PER_10K_VIEWS and
+                 CODECS[r["codec"]].in_spec]
+    meets = [r for r in ok_layout if r["bytes_per_view"] <= AIM_BYTES_PER_VIEW]
+    if meets:
+        best = min(r["write_read_cpu_s_per_view"] for r in meets)
+        pick = min((r for r in meets if r["write_read_cpu_s_per_view"] <= best * 1.05),
+                   key=lambda r: r["bytes_per_view"])
+        how = "smallest write+read CPU among in-spec rows meeting bytes and objects aims (ties within 5 %: bytes)"
+    else:
+        best = min(r["write_read_cpu_s_per_view"] for r in ok_layout)
+        pick = min((r for r in ok_layout if r["write_read_cpu_s_per_view"] <= best * 1.25),
+                   key=lambda r: r["bytes_per_view"])
+        how = ("no in-spec row meets the bytes aim: smallest bytes among rows within 25 % of the cheapest "
+               "write+read CPU of the objects-aim layout")
+    out = {"rule": choose.__doc__.split("\n\n")[0].replace("\n   ", "").replace("  ", " "), "applied": how,
+           "codec": pick["codec"], "about": CODECS[pick["codec"]].about, "layout": pick["layout"],
+           "task_samples": pick["task_samples"], "inner_chunk_samples": pick["inner_chunk_samples"],
+           "bytes_per_view": pick["bytes_per_view"], "write_cpu_s_per_view": pick["write_cpu_s_per_view"],
+           "read_cpu_s_per_view": pick["read_cpu_s_per_view"],
+           "objects_per_10k_views": pick["objects_per_10k_views"],
+           "meets_bytes_aim": pick["bytes_per_view"] <= AIM_BYTES_PER_VIEW}
+    if render_cpu_s_per_view is not None:
+        today = next(r for r in rows if r["codec"] == TODAY and r["layout"] == "chunked")
+        est = render_cpu_s_per_view - today["write_cpu_s_per_view"] + pick["write_cpu_s_per_view"]
+        out.update({"end_to_end_cpu_s_per_view_estimate": est, "meets_cpu_aim_estimate": est <= AIM_CPU_S_PER_VIEW,
+                    "end_to_end_note": "render.json cpu_s_per_view (measured with zstd5, chunked) minus this run's "
+                                       "zstd5 chunked write CPU plus the chosen write CPU: an estimate joining two "
+                                       "runs, not a measurement"})
+    return out
+
+
+def run_store(label: str, path: Path, kind: str, samples: int, today_task: int, reps: int, tmp: Path,
+              codecs: list[str]) -> dict:
+    """Every candidate in every layout on the first ``samples`` samples of one store (a renders store's unit is
+    the view, V per sample; a variants store's the variant)."""
+    data = load(path, kind, samples)
+    views = int(data["image"].shape[1]) if kind == "renders" else 1
+    n = len(next(iter(data.values())))
+    rows = []
+    for lay in layouts(today_task, len(data), views, n):
+        if n % lay.task:
+            raise SystemExit(f"--samples {samples}: {label} has {n} samples, not a multiple of the task "
+                             f"{lay.task} of layout {lay.name} (objects would be counted on a partial shard)")
+        for name in codecs:
+            row = measure(data, views, CODECS[name], lay, reps, tmp)
+            rows.append(row)
+            print(f"{label:8s} {lay.name:10s} {name:22s} {row['bytes_per_view'] / 1e3:8.1f} KB/view  "
+                  f"write {row['write_cpu_s_per_view'] * 1e3:6.2f} ms  read {row['read_cpu_s_per_view'] * 1e3:6.2f}"
+                  f" ms  {row['objects_per_10k_views']:7.0f} obj/10k", flush=True)
+    return {"store": str(path), "kind": kind, "samples": n, "views_per_sample": views, "views": n * views,
+            "arrays": {k: {"shape": list(a.shape[1:]), "dtype": str(a.dtype)} for k, a in data.items()},
+            "raw_bytes_per_view": sum(a.nbytes for a in data.values()) / (n * views),
+            "today_task_samples": today_task, "rows": rows}
+
+
+def main(argv=None) -> int:
+    ap = parser(__doc__)
+    ap.add_argument("--renders", type=Path, default=ROOT / "data" / "renders.zarr", help="renders store (read only)")
+    ap.add_argument("--variants", type=Path, default=ROOT / "data" / "variants.zarr",
+                    help="variants store (read only); 'none' skips it")
+    ap.add_argument("--samples", type=int, default=64, help="SVBRDFs (renders) / variants measured")
+    ap.add_argument("--reps", type=int, default=2, help="fresh writes and reads per candidate (median)")
+    ap.add_argument("--codecs", default=",".join(CODECS), help="comma-separated subset of the candidates")
+    ap.add_argument("--tmp", type=Path, default=None, help="scratch folder (default: a temporary one)")
+    ap.add_argument("--out", type=Path, default=RESULTS / "codecs.json")
+    args = ap.parse_args(argv)
+    codecs = [c for c in args.codecs.split(",") if c]
+    unknown = [c for c in codecs if c not in CODECS]
+    if unknown:
+        raise SystemExit(f"unknown codec(s) {unknown}; choose from {list(CODECS)}")
+    render_cfg, sample_cfg = build(RenderConfig, "default"), build(SampleConfig, "default")
+    tmp = Path(tempfile.mkdtemp(prefix="svgen-bench-codecs-", dir=args.tmp))
+    t0 = time.perf_counter()
+    try:
+        stores = {"renders": run_store("renders", args.renders, "renders", args.samples, render_cfg.chunk,
+                                       args.reps, tmp, codecs)}
+        if str(args.variants) != "none":
+            stores["variants"] = run_store("variants", args.variants, "variants", args.samples, sample_cfg.chunk,
+                                           args.reps, tmp, codecs)
+    except StoreError as e:
+        raise SystemExit(f"bench_codecs: {e}") from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    render_json = RESULTS / "render.json"
+    render_cpu = json.loads(render_json.read_text())["cpu_s_per_view"] if render_json.exists() else None
+    result = {
+        "benchmark": "codecs", "aims": {"cpu_s_per_view_end_to_end": AIM_CPU_S_PER_VIEW,
+                                        "bytes_per_view": AIM_BYTES_PER_VIEW,
+                                        "objects_per_10k_views": AIM_OBJECTS_PER_10K_VIEWS},
+        "today": {"codec": TODAY, "layout": "chunked", "task_samples": render_cfg.chunk},
+        "codecs": {c: {"about": CODECS[c].about, "family": CODECS[c].family, "in_zarr_v3_spec": CODECS[c].in_spec}
+                   for c in codecs},
+        "reps": args.reps, "render_json_cpu_s_per_view": render_cpu,
+        "chosen": choose(stores["renders"]["rows"], render_cpu),
+        "stores": stores, "wall_s": time.perf_counter() - t0,
+        "timing_note": "CPU-s = time.process_time (all threads of this process) around the region writes "
+                       "(encode + write) and around open + whole-array reads (read + decode, files in the page "
+                       "cache); medians of the reps",
+    }
+    write_results(args.out, result, args.note)
+    write_csv(args.out.with_suffix(".csv"),
+              [{"store": s, **{k: v for k, v in r.items() if not isinstance(v, (dict, list))}}
+               for s, d in stores.items() for r in d["rows"]])
+    print(json.dumps(result["chosen"], indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
