@@ -296,57 +296,76 @@ def run_store(label: str, path: Path, kind: str, samples: int, today_task: int, 
             "today_task_samples": today_task, "rows": rows}
 
 
+def _codecs(spec: str) -> list[str]:
+    names = [c for c in spec.split(",") if c]
+    unknown = [c for c in names if c not in CODECS]
+    if unknown or not names:
+        raise SystemExit(f"bench_codecs: unknown codec(s) {unknown or spec!r}; choose from {','.join(CODECS)}")
+    return names
+
+
+def _write(args, stores: dict, render_task: int, t0: float) -> None:
+    """Write the results (after each store, so an interrupted run keeps the renders rows)."""
+    render_json = RESULTS / "render.json"
+    render_cpu = json.loads(render_json.read_text())["cpu_s_per_view"] if render_json.exists() else None
+    used = list(dict.fromkeys(r["codec"] for d in stores.values() for r in d["rows"]))
+    result = {
+        "benchmark": "codecs", "aims": {"cpu_s_per_view_end_to_end": AIM_CPU_S_PER_VIEW,
+                                        "bytes_per_view": AIM_BYTES_PER_VIEW,
+                                        "objects_per_10k_views": AIM_OBJECTS_PER_10K_VIEWS},
+        "today": {"codec": TODAY, "layout": "chunked", "task_samples": render_task},
+        "codecs": {c: {"about": CODECS[c].about, "family": CODECS[c].family, "in_zarr_v3_spec": CODECS[c].in_spec}
+                   for c in used},
+        "reps": args.reps, "render_json_cpu_s_per_view": render_cpu,
+        "chosen": choose(stores["renders"]["rows"], render_cpu),
+        "stores": stores, "wall_s": time.perf_counter() - t0, "complete": len(stores) == 2 or
+        str(args.variants) == "none",
+        "timing_note": "CPU-s = time.process_time (all threads of this process) around the region writes "
+                       "(encode + write) and around open + whole-array reads (read + decode, files in the page "
+                       "cache); medians of the reps",
+        "objects_note": "objects = chunk or shard files written (zarr.json metadata, one per array, excluded); "
+                        "zarr writes no file for a chunk that is all fill value (0), so a column of zeros counts 0",
+    }
+    write_results(args.out, result, args.note)
+    write_csv(args.out.with_suffix(".csv"),
+              [{"store": s, **{k: v for k, v in r.items() if not isinstance(v, (dict, list))}}
+               for s, d in stores.items() for r in d["rows"]])
+
+
 def main(argv=None) -> int:
     ap = parser(__doc__)
     ap.add_argument("--renders", type=Path, default=ROOT / "data" / "renders.zarr", help="renders store (read only)")
     ap.add_argument("--variants", type=Path, default=ROOT / "data" / "variants.zarr",
                     help="variants store (read only); 'none' skips it")
-    ap.add_argument("--samples", type=int, default=64, help="SVBRDFs (renders) / variants measured, evenly spread over each store")
+    ap.add_argument("--samples", type=int, default=64,
+                    help="SVBRDFs (renders) / variants measured, evenly spread over each store")
     ap.add_argument("--reps", type=int, default=2, help="fresh writes and reads per candidate (median)")
     ap.add_argument("--codecs", default=",".join(CODECS), help="comma-separated subset of the candidates")
+    ap.add_argument("--variants-codecs", default=None, help="the candidates run on the variants store "
+                    "(default: --codecs)")
     ap.add_argument("--tmp", type=Path, default=None, help="scratch folder (default: a temporary one)")
     ap.add_argument("--out", type=Path, default=RESULTS / "codecs.json")
     ap.add_argument("--keep", type=Path, default=None,
                     help="keep each candidate's last written store here (<store>/<codec>-<layout>.zarr)")
     args = ap.parse_args(argv)
-    codecs = [c for c in args.codecs.split(",") if c]
-    unknown = [c for c in codecs if c not in CODECS]
-    if unknown:
-        raise SystemExit(f"unknown codec(s) {unknown}; choose from {list(CODECS)}")
+    codecs = _codecs(args.codecs)
+    variant_codecs = _codecs(args.variants_codecs) if args.variants_codecs else codecs
     render_cfg, sample_cfg = build(RenderConfig, "default"), build(SampleConfig, "default")
     tmp = Path(tempfile.mkdtemp(prefix="svgen-bench-codecs-", dir=args.tmp))
     t0 = time.perf_counter()
     try:
         stores = {"renders": run_store("renders", args.renders, "renders", args.samples, render_cfg.chunk,
                                        args.reps, tmp, codecs, args.keep)}
+        _write(args, stores, render_cfg.chunk, t0)
         if str(args.variants) != "none":
             stores["variants"] = run_store("variants", args.variants, "variants", args.samples, sample_cfg.chunk,
-                                           args.reps, tmp, codecs, args.keep)
+                                           args.reps, tmp, variant_codecs, args.keep)
+            _write(args, stores, render_cfg.chunk, t0)
     except StoreError as e:
         raise SystemExit(f"bench_codecs: {e}") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    render_json = RESULTS / "render.json"
-    render_cpu = json.loads(render_json.read_text())["cpu_s_per_view"] if render_json.exists() else None
-    result = {
-        "benchmark": "codecs", "aims": {"cpu_s_per_view_end_to_end": AIM_CPU_S_PER_VIEW,
-                                        "bytes_per_view": AIM_BYTES_PER_VIEW,
-                                        "objects_per_10k_views": AIM_OBJECTS_PER_10K_VIEWS},
-        "today": {"codec": TODAY, "layout": "chunked", "task_samples": render_cfg.chunk},
-        "codecs": {c: {"about": CODECS[c].about, "family": CODECS[c].family, "in_zarr_v3_spec": CODECS[c].in_spec}
-                   for c in codecs},
-        "reps": args.reps, "render_json_cpu_s_per_view": render_cpu,
-        "chosen": choose(stores["renders"]["rows"], render_cpu),
-        "stores": stores, "wall_s": time.perf_counter() - t0,
-        "timing_note": "CPU-s = time.process_time (all threads of this process) around the region writes "
-                       "(encode + write) and around open + whole-array reads (read + decode, files in the page "
-                       "cache); medians of the reps",
-    }
-    write_results(args.out, result, args.note)
-    write_csv(args.out.with_suffix(".csv"),
-              [{"store": s, **{k: v for k, v in r.items() if not isinstance(v, (dict, list))}}
-               for s, d in stores.items() for r in d["rows"]])
-    print(json.dumps(result["chosen"], indent=1))
+    print(json.loads(args.out.read_text())["chosen"])
     return 0
 
 
