@@ -24,15 +24,15 @@ CODECS = "zstd5,blosc-lz4-bit,blosc-zstd-shuf,delta-zstd3"
 
 @pytest.fixture(scope="module")
 def stores(tmp_path_factory):
-    """8 variants (2 presets x 4: the sample stage's task is 8), 64^2 maps, `svgen sample` code) and their renders (`svgen render`, tiny
-    preset: 2 views of 64^2 each)."""
+    """8 variants (2 presets x 4: the sample stage's task is 8; 64^2 maps, `svgen sample` code) and their renders
+    (`svgen render`, tiny preset: 2 views of 64^2 each)."""
     from pipeline.cli import cli
     from svcore.cli import run_cli
 
     d = tmp_path_factory.mktemp("codecs")
     variants, renders = d / "variants.zarr", d / "renders.zarr"
-    run_sample(variants, build(SampleConfig, "tiny", presets=("paint/glossy_red", "metal/aluminium_plate"), per_preset=4),
-               workers=0)
+    run_sample(variants, build(SampleConfig, "tiny", presets=("paint/glossy_red", "metal/aluminium_plate"),
+                               per_preset=4), workers=0)
     assert run_cli(cli, "svgen", ["render", str(variants), str(renders), "--config-preset", "tiny", "--chunk", "1",
                                   "--workers", "0"]) == 0
     return variants, renders
