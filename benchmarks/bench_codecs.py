@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import shutil
 import statistics
 import tempfile
@@ -265,7 +264,8 @@ def choose(rows: list[dict], render_cpu_s_per_view: float | None) -> dict:
     in_spec = pick_from(spec_rows)[0] if spec_rows else None
 
     def summary(r):
-        return {"codec": r["codec"], "about": CODECS[r["codec"]].about, "in_zarr_v3_spec": CODECS[r["codec"]].in_spec,
+        return {"codec": r["codec"], "about": CODECS[r["codec"]].about,
+                "in_zarr_v3_spec": CODECS[r["codec"]].in_spec,
                 "layout": r["layout"], "task_samples": r["task_samples"],
                 "inner_chunk_samples": r["inner_chunk_samples"], "bytes_per_view": r["bytes_per_view"],
                 "write_cpu_s_per_view": r["write_cpu_s_per_view"], "read_cpu_s_per_view": r["read_cpu_s_per_view"],
