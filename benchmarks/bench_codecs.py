@@ -302,7 +302,8 @@ def run_store(label: str, path: Path, kind: str, samples: int, today_task: int, 
             print(f"{label:8s} {lay.name:10s} {name:22s} {row['bytes_per_view'] / 1e3:8.1f} KB/view  "
                   f"write {row['write_cpu_s_per_view'] * 1e3:6.2f} ms  read {row['read_cpu_s_per_view'] * 1e3:6.2f}"
                   f" ms  {row['objects_per_10k_views']:7.0f} obj/10k", flush=True)
-    return {"store": str(path), "kind": kind, "samples": n, "sample_indices": idx, "views_per_sample": views, "views": n * views,
+    return {"store": str(path), "kind": kind, "samples": n, "sample_indices": idx, "views_per_sample": views,
+            "views": n * views,
             "arrays": {k: {"shape": list(a.shape[1:]), "dtype": str(a.dtype)} for k, a in data.items()},
             "raw_bytes_per_view": sum(a.nbytes for a in data.values()) / (n * views),
             "today_task_samples": today_task, "rows": rows}
