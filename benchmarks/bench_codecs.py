@@ -15,7 +15,8 @@ the stores today) in every layout (:func:`layouts`):
 Per candidate and layout: bytes per view (the files written, zarr.json excluded), CPU seconds per view to
 encode + write (``time.process_time`` around the region writes only: all threads of this process, zarr's
 I/O and codec threads included), to read + decode (whole arrays; the files are in the page cache), the
-median of ``--reps`` fresh writes, and objects per 10,000 views counted from the files written. Every
+median of ``--reps`` fresh writes (in rounds: every candidate once per round, so load changes on a shared machine
+spread over all of them), and objects per 10,000 views counted from the files written. Every
 candidate's read-back is compared with the input (``lossless`` must hold: the run fails otherwise).
 
 The default is chosen by a stated rule (:func:`choose`) and written into the results with the rule.
@@ -176,49 +177,60 @@ def read_store(root: Path, names) -> tuple[float, dict[str, np.ndarray]]:
     return time.process_time() - c0, out
 
 
-def measure(data: dict[str, np.ndarray], views: int, codec: Codec, layout: Layout, reps: int, tmp: Path,
-            keep: Path | None = None) -> dict:
-    """One candidate in one layout: medians over ``reps`` fresh writes and reads; verifies the read-back.
+def measure_once(data: dict[str, np.ndarray], codec: Codec, layout: Layout, root: Path) -> dict:
+    """One fresh write and read of one candidate in one layout at ``root``; verifies the read-back.
+
+    Returns:
+        write and read CPU seconds, the number of files and the bytes per array written.
 
     Raises:
         AssertionError: the read-back differs from the input in any bit (a lossy pipeline).
     """
-    n = len(next(iter(data.values())))
-    n_views = n * views
-    w_cpu, r_cpu = [], []
-    for r in range(reps):
-        root = tmp / f"{codec.name}-{layout.name}-{r}.zarr"
-        w_cpu.append(write_store(root, data, codec, layout))
-        cpu, back = read_store(root, data)
-        r_cpu.append(cpu)
-        # bit for bit (NaN padding of a variants store's params included)
-        bad = [k for k in data if back[k].dtype != data[k].dtype or back[k].shape != data[k].shape
-               or back[k].tobytes() != data[k].tobytes()]
-        if bad:
-            raise AssertionError(f"{codec.name} in layout {layout.name} is not lossless on {bad}")
-        files = _files(root)
-        per_array = {k: sum(p.stat().st_size for p in files if p.relative_to(root).parts[0] == k) for k in data}
-        n_files = len(files)
-        if r < reps - 1:
-            shutil.rmtree(root)
-    if keep is not None:  # the last write, for a test to recount its files
-        keep.mkdir(parents=True, exist_ok=True)
-        shutil.move(root, keep / f"{codec.name}-{layout.name}.zarr")
-    else:
-        shutil.rmtree(root)
-    total = sum(per_array.values())
-    raw = sum(a.nbytes for a in data.values())
-    w, rd = statistics.median(w_cpu), statistics.median(r_cpu)
+    w_cpu = write_store(root, data, codec, layout)
+    r_cpu, back = read_store(root, data)
+    # bit for bit (NaN padding of a variants store's params included)
+    bad = [k for k in data if back[k].dtype != data[k].dtype or back[k].shape != data[k].shape
+           or back[k].tobytes() != data[k].tobytes()]
+    if bad:
+        raise AssertionError(f"{codec.name} in layout {layout.name} is not lossless on {bad}")
+    files = _files(root)
+    return {"write": w_cpu, "read": r_cpu, "files": len(files),
+            "bytes": {k: sum(p.stat().st_size for p in files if p.relative_to(root).parts[0] == k) for k in data}}
+
+
+def row_of(data: dict[str, np.ndarray], views: int, codec: Codec, layout: Layout, runs: list[dict]) -> dict:
+    """The results row of one candidate in one layout from its runs (medians of the CPU; bytes and files of the
+    last run, which every run repeats exactly)."""
+    n_views = len(next(iter(data.values()))) * views
+    last = runs[-1]
+    total = sum(last["bytes"].values())
+    w = statistics.median(r["write"] for r in runs)
+    rd = statistics.median(r["read"] for r in runs)
     return {
         "codec": codec.name, "family": codec.family, "layout": layout.name, "sharded": layout.sharded,
         "task_samples": layout.task, "inner_chunk_samples": layout.inner,
-        "bytes_per_view": total / n_views, "ratio": raw / total,
+        "bytes_per_view": total / n_views, "ratio": sum(a.nbytes for a in data.values()) / total,
         "write_cpu_s_per_view": w / n_views, "read_cpu_s_per_view": rd / n_views,
         "write_read_cpu_s_per_view": (w + rd) / n_views,
-        "objects": n_files, "objects_per_10k_views": n_files * 10_000 / n_views,
-        "bytes_per_view_by_array": {k: v / n_views for k, v in per_array.items()},
-        "write_cpu_s_reps": w_cpu, "read_cpu_s_reps": r_cpu, "lossless": True,
+        "objects": last["files"], "objects_per_10k_views": last["files"] * 10_000 / n_views,
+        "bytes_per_view_by_array": {k: v / n_views for k, v in last["bytes"].items()},
+        "write_cpu_s_reps": [r["write"] for r in runs], "read_cpu_s_reps": [r["read"] for r in runs],
+        "lossless": True,
     }
+
+
+def measure(data: dict[str, np.ndarray], views: int, codec: Codec, layout: Layout, reps: int, tmp: Path) -> dict:
+    """One candidate in one layout, ``reps`` fresh writes and reads in a row (medians); verifies each read-back.
+
+    Raises:
+        AssertionError: the read-back differs from the input in any bit (a lossy pipeline).
+    """
+    runs = []
+    for r in range(reps):
+        root = tmp / f"{codec.name}-{layout.name}-{r}.zarr"
+        runs.append(measure_once(data, codec, layout, root))
+        shutil.rmtree(root)
+    return row_of(data, views, codec, layout, runs)
 
 
 def load(path: Path, kind: str, samples: int) -> tuple[dict[str, np.ndarray], list[int]]:
@@ -291,17 +303,30 @@ def run_store(label: str, path: Path, kind: str, samples: int, today_task: int, 
     data, idx = load(path, kind, samples)
     views = int(data["image"].shape[1]) if kind == "renders" else 1
     n = len(next(iter(data.values())))
-    rows = []
-    for lay in layouts(today_task, len(data), views, n):
+    lays = layouts(today_task, len(data), views, n)
+    for lay in lays:
         if n % lay.task:
             raise SystemExit(f"--samples {samples}: {label} has {n} samples, not a multiple of the task "
                              f"{lay.task} of layout {lay.name} (objects would be counted on a partial shard)")
-        for name in codecs:
-            row = measure(data, views, CODECS[name], lay, reps, tmp, keep and keep / label)
-            rows.append(row)
-            print(f"{label:8s} {lay.name:10s} {name:22s} {row['bytes_per_view'] / 1e3:8.1f} KB/view  "
-                  f"write {row['write_cpu_s_per_view'] * 1e3:6.2f} ms  read {row['read_cpu_s_per_view'] * 1e3:6.2f}"
-                  f" ms  {row['objects_per_10k_views']:7.0f} obj/10k", flush=True)
+    # reps outermost: every candidate is measured once per round, so a change of the shared machine's load
+    # during the run spreads over all of them instead of favouring the ones measured in a quiet minute
+    runs: dict[tuple[str, str], list[dict]] = {}
+    for rep in range(reps):
+        for lay in lays:
+            for name in codecs:
+                root = tmp / f"{name}-{lay.name}.zarr"
+                runs.setdefault((name, lay.name), []).append(measure_once(data, CODECS[name], lay, root))
+                if keep is not None and rep == reps - 1:  # the last write, for a test to recount its files
+                    (keep / label).mkdir(parents=True, exist_ok=True)
+                    shutil.move(root, keep / label / root.name)
+                else:
+                    shutil.rmtree(root)
+                row = row_of(data, views, CODECS[name], lay, runs[(name, lay.name)])
+                print(f"{label:8s} rep {rep} {lay.name:10s} {name:22s} {row['bytes_per_view'] / 1e3:8.1f} KB/view  "
+                      f"write {row['write_cpu_s_per_view'] * 1e3:6.2f} ms  read "
+                      f"{row['read_cpu_s_per_view'] * 1e3:6.2f} ms  {row['objects_per_10k_views']:7.0f} obj/10k",
+                      flush=True)
+    rows = [row_of(data, views, CODECS[name], lay, runs[(name, lay.name)]) for lay in lays for name in codecs]
     return {"store": str(path), "kind": kind, "samples": n, "sample_indices": idx, "views_per_sample": views,
             "views": n * views,
             "arrays": {k: {"shape": list(a.shape[1:]), "dtype": str(a.dtype)} for k, a in data.items()},
