@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import errno
 import os
+import sys
 
 import click
 
@@ -50,6 +51,21 @@ def run_cli(group: click.Group, prog: str, argv=None) -> int:
 
     Set ``SVGEN_DEBUG=1`` to see tracebacks of unexpected errors.
     """
+    code = _run_cli(group, prog, argv)
+    if code and not os.environ.get("SVGEN_DEBUG"):
+        # the error is reported: what async clients abandon by it (an s3fs request still pending when the endpoint
+        # went away) must not add a traceback at exit ("Exception ignored in: <coroutine ...>")
+        sys.unraisablehook = _quiet_unraisable
+    return code
+
+
+def _quiet_unraisable(unraisable) -> None:
+    from .log import get_logger
+
+    get_logger(__name__).debug("ignored at exit: %s", unraisable.exc_value)
+
+
+def _run_cli(group: click.Group, prog: str, argv=None) -> int:
     try:
         group.main(args=argv, prog_name=prog, standalone_mode=False)
         return 0
