@@ -78,3 +78,16 @@ def chunk_stats(store, chunks, array, ndim):
         st = (Path(store) / array / "c" / str(c) / "/".join(["0"] * (ndim - 1))).stat()
         out[c] = (st.st_ino, st.st_mtime_ns)
     return out
+
+
+def stop_processes(procs) -> None:
+    """Terminate server processes a test started (last started first), killing any that outlive 10 s."""
+    import subprocess
+
+    for p in procs[::-1]:
+        p.terminate()
+    for p in procs:
+        try:
+            p.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            p.kill()

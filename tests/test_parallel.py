@@ -9,7 +9,7 @@ import subprocess
 
 import pytest
 
-from conftest import tree_digest
+from conftest import stop_processes, tree_digest
 from pipeline.config import SampleConfig
 from pipeline.parallel import run_chunks, usable_cpus
 from pipeline.sample import run_sample
@@ -60,13 +60,7 @@ def test_thread_budget_comes_from_the_worker_not_the_caller():
 
         assert run_chunks(threads_seen, [0, 1, 2], scheduler_address=addr) == 3  # 1 thread each, not 2
     finally:
-        for p in procs[::-1]:
-            p.terminate()
-        for p in procs:
-            try:
-                p.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop_processes(procs)
 
 
 

@@ -10,7 +10,7 @@ import subprocess
 import pytest
 from test_render_resume import _svgen, reference, variants  # noqa: F401  (shared module fixtures)
 
-from conftest import tree_digest
+from conftest import stop_processes, tree_digest
 
 
 def _free_port() -> int:
@@ -46,10 +46,4 @@ def test_distributed_cluster_gives_the_same_bytes(variants, reference, tmp_path)
         assert r.returncode == 0, r.stderr
         assert tree_digest(out) == tree_digest(reference)
     finally:
-        for p in procs[::-1]:
-            p.terminate()
-        for p in procs:
-            try:
-                p.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop_processes(procs)
