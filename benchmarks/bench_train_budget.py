@@ -246,7 +246,7 @@ def run_width(a, base: int, src, train_idx, eval_src, eval_idx, eval_batches, me
     final = points[-1]
     ref = None
     if base == a.table_width:  # the authoritative table (svtrain eval's code), for the width under study
-        ref = evaluate(model, eval_src, eval_idx, cfg.data.crop, means, 8, o.seed)
+        ref = evaluate(model, eval_src, eval_idx, cfg.data.crop, means, 8, a.seed if a.split_seed is None else a.split_seed)
         ref["matches_points"] = all(abs(ref["model"][c] - final[c]) < 1e-5 for c in COLUMNS)
     return {"base_width": base, "max_width": 8 * base, "steps_from": "quiet calibration" if quiet else
             ("--steps" if a.steps else "calibrated at start"), "levels": cfg.model.levels,
@@ -307,6 +307,9 @@ def main(argv=None) -> None:
                     help="torch.compile the loss (auto: when the probe shows it is faster)")
     ap.add_argument("--eval-views", type=int, default=200, help="held-out views evaluated (evenly spaced subset)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--split-seed", type=int, default=None,
+                    help="seed of the held-out split and the eval set (default: --seed, as svtrain fit); fix it to "
+                         "compare training seeds on one split")
     ap.add_argument("--tol", type=float, default=0.05, help="'within a few %%' of the width rule")
     ap.add_argument("--out", default=str(RESULTS), help="output folder")
     ap.add_argument("--png", default=str(IMG / "chart_training.png"), help="chart ('' = none)")
@@ -331,9 +334,10 @@ def main(argv=None) -> None:
     print(json.dumps({"compile_probe": probe, "compile": a.compile}), flush=True)
 
     cfg0 = make_cfg(a, a.widths[0])
+    split_seed = a.seed if a.split_seed is None else a.split_seed
     src = open_source(cfg0.data)
     if a.calibrate_only:
-        train_idx, _ = split_by_source(src, cfg0.data.holdout, a.seed)
+        train_idx, _ = split_by_source(src, cfg0.data.holdout, split_seed)
         cal = {}
         for w in sorted(a.widths):
             cfg = make_cfg(a, w)
@@ -347,17 +351,17 @@ def main(argv=None) -> None:
             "widths": cal, "command": "python3 benchmarks/bench_train_budget.py " + " ".join(argv or sys.argv[1:])},
             a.note)
         return
-    train_idx, test_idx = split_by_source(src, cfg0.data.holdout, a.seed)
+    train_idx, test_idx = split_by_source(src, cfg0.data.holdout, split_seed)
     n_eval = min(a.eval_views, len(test_idx))
     eval_idx = test_idx[np.unique(np.linspace(0, len(test_idx) - 1, n_eval).round().astype(np.int64))]
     t0 = time.perf_counter()
-    eval_src, means = prepare_eval(cfg0.data, eval_idx, train_idx, a.crop, a.seed)
-    base = evaluate(None, eval_src, eval_idx, a.crop, means, 8, a.seed)
+    eval_src, means = prepare_eval(cfg0.data, eval_idx, train_idx, a.crop, split_seed)
+    base = evaluate(None, eval_src, eval_idx, a.crop, means, 8, split_seed)
     baselines = {b: base[b] for b in BASELINES}
     print(json.dumps({"baselines": baselines, "eval_views": int(len(eval_idx)),
                       "prep_s": round(time.perf_counter() - t0, 1)}), flush=True)
 
-    eval_batches = eval_batches_of(eval_src, eval_idx, a.crop, a.seed)
+    eval_batches = eval_batches_of(eval_src, eval_idx, a.crop, split_seed)
     rows = [run_width(a, w, src, train_idx, eval_src, eval_idx, eval_batches, means) for w in sorted(a.widths)]
 
     default = a.table_width
@@ -388,7 +392,7 @@ def main(argv=None) -> None:
            "store": a.store, "overrides": a.set, "budget_wall_s": a.budget_s, "lr": a.lr, "schedule": a.schedule,
            "grad_clip": a.grad_clip, "beta1": 0.5, "batch_size": a.batch,
            "crop": a.crop, "levels": a.levels, "max_width": "8 x base", "threads": a.threads,
-           "loader_workers": a.workers, "compile_loss": a.compile == "on", "compile_probe": probe, "seed": a.seed,
+           "loader_workers": a.workers, "compile_loss": a.compile == "on", "compile_probe": probe, "seed": a.seed, "split_seed": split_seed,
            "split": {"train_views": int(len(train_idx)), "heldout_views": int(len(test_idx)),
                      "eval_views": int(len(eval_idx)), "by": "preset (data.holdout of the compact preset)"},
            "optim": cfg0.to_dict()["optim"], "baselines": baselines, "widths": rows, "compact_default": default,
