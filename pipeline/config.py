@@ -27,7 +27,7 @@ class SampleConfig(StageConfig):
 
     SECTION: ClassVar[str] = "sample"
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
-        "default": {}, "tiny": {"per_preset": 2, "size": 64}, "paper": {"per_preset": 12, "size": 288}}
+        "default": {}, "tiny": {"per_preset": 2, "size": 64, "chunk": 8}, "paper": {"per_preset": 12, "size": 288}}
 
     per_preset: int = Field(12, ge=1)
     """Variants per base material (the paper: ~1,850 variants of 155 materials, i.e. 12 each). Variant 0 is the
@@ -42,8 +42,9 @@ class SampleConfig(StageConfig):
     """Only these base materials (class/name, as `svgen materials` lists them; empty: all)."""
     classes: tuple[str, ...] = Field((), **_LIST)
     """Only these material classes (empty: all)."""
-    chunk: int = Field(8, ge=1)
-    """Samples per zarr chunk (one dask task writes one chunk)."""
+    chunk: int = Field(64, ge=1)
+    """Samples per task: one dask task writes one zarr shard per array (the store's objects; the resume unit).
+    64 like render.chunk (docs/CODECS.md)."""
     from_stores: tuple[str, ...] = Field((), **_LIST)
     """Imported variants stores (`svgen import`) whose materials are perturbed too: per_material variants of
     each, after the presets' variants (pipeline/sample_from.py)."""
@@ -71,7 +72,7 @@ class BlendConfig(StageConfig):
     """`svgen blend`: convex combinations of random pairs of variants."""
 
     SECTION: ClassVar[str] = "blend"
-    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {"default": {}, "tiny": {"count": 6}, "paper": {"count": 20000}}
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {"default": {}, "tiny": {"count": 6, "chunk": 8}, "paper": {"count": 20000}}
 
     count: int = Field(120, ge=1)
     """Number of blends (the paper: ~10x the number of variants)."""
@@ -88,8 +89,8 @@ class BlendConfig(StageConfig):
     """Mask mode: a different mask per map (normal, diffuse, specular, roughness), decorrelating the maps."""
     mask_scale: float = Field(4.0, ge=0.5, le=64)
     """Mask mode: features per tile of the mask noise (larger: finer patches)."""
-    chunk: int = Field(8, ge=1)
-    """Samples per zarr chunk."""
+    chunk: int = Field(64, ge=1)
+    """Samples per task: one dask task writes one zarr shard per array (64 like render.chunk: docs/CODECS.md)."""
 
     @model_validator(mode="after")
     def _alpha_order(self) -> "BlendConfig":
@@ -113,7 +114,8 @@ class StressConfig(StageConfig):
     categories: tuple[str, ...] = Field((), **_LIST)
     """Only these categories (empty: all of pipeline.stress.CATEGORIES)."""
     chunk: int = Field(4, ge=1)
-    """Samples per zarr chunk."""
+    """Samples per task: one dask task writes one zarr shard per array (a small evaluation set: few objects
+    whatever the task)."""
 
 
 #: light models and pixel samplers of the flash scene (pipeline/render/scene.py holds the implementations; a
@@ -127,7 +129,7 @@ class RenderConfig(StageConfig):
 
     SECTION: ClassVar[str] = "render"
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
-        "default": {}, "tiny": {"views": 2, "res": 64}, "paper": {"views": 10, "res": 288}}
+        "default": {}, "tiny": {"views": 2, "res": 64, "chunk": 2}, "paper": {"views": 10, "res": 288}}
 
     views: int = Field(10, ge=1)
     """Views per SVBRDF (the paper: 10), each with its own light offset, zoom, rotation, shift and seed."""
@@ -142,8 +144,9 @@ class RenderConfig(StageConfig):
     """Pixel sampling: centre (deterministic pixel centres; spp a square), stratified, independent."""
     seed: int = Field(0, ge=0, lt=2 ** 64)
     """Master seed; view k of SVBRDF s uses derive_seed(seed, "render", s, k)."""
-    chunk: int = Field(2, ge=1)
-    """SVBRDFs per zarr chunk (one dask task renders and writes one chunk: chunk * views images)."""
+    chunk: int = Field(64, ge=1)
+    """SVBRDFs per task: one dask task renders chunk * views images and writes one zarr shard per array (the
+    store's objects, the resume unit; 64: <= 200 objects per 10,000 views, docs/CODECS.md)."""
 
     @model_validator(mode="after")
     def _square_spp(self) -> "RenderConfig":
@@ -186,7 +189,8 @@ class ImportConfig(StageConfig):
     height_strength: float = Field(0.02, gt=0, le=10)
     """Relief of height value 1 in tile widths: height-derived normals are normalize(-s dh/du, -s dh/dv, 1)."""
     chunk: int = Field(4, ge=1)
-    """Materials per zarr chunk (one dask task converts and writes one chunk)."""
+    """Materials per task: one dask task converts them and writes one zarr shard per array (small: a task holds
+    its materials' full-size source maps in memory)."""
 
     @model_validator(mode="after")
     def _consistent(self) -> "ImportConfig":

@@ -5,7 +5,8 @@ Life of a store written by a stage:
 1. :class:`StoreWriter` creates ``<out>.partial/`` (a zarr v3 group), takes an
    exclusive ``flock`` on ``<out>.lock`` beside it (a second run on the same
    output is refused; the kernel drops the lock when a run is SIGKILLed), and
-   creates every array up front, chunked along the sample axis.
+   creates every array up front: one shard per task along the sample axis (:func:`array_layout`). Below, a
+   "chunk" of the store is that object, the unit of a task, a marker and a manifest record.
 2. Workers write whole chunks with :func:`write_chunk` (aligned regions of the
    ``zarr.Array``, never ``da.to_zarr``: DESIGN.md) and then drop a marker file
    ``.done/<chunk>``; a marker exists only after its chunk's bytes are on disk.
@@ -33,7 +34,9 @@ What is verified when (see :func:`check_chunks`, :func:`verify_store`):
 * every read: zarr's CRC32C codec checks the bytes of each chunk it decodes (:func:`read_region` names it).
 * on request: :func:`verify_store` re-hashes every chunk file against the manifest's SHA-256.
 
-Stores written before manifests (schema 1) are refused with a line that says to re-create them: without a
+Schema 2 stores (unsharded: one plain chunk per task, zstd 5) stay readable, by every reader: zarr decodes
+each array by its own metadata and their manifests list one object per task too. Stores written before
+manifests (schema 1) are refused with a line that says to re-create them: without a
 manifest a missing chunk cannot be told from an all-fill-value chunk that zarr never writes.
 """
 from __future__ import annotations
@@ -57,7 +60,11 @@ from svcore.versions import library_versions
 
 from .objstore import is_object_url, local_path, normalize_url
 
-SCHEMA_VERSION = 2  # 2: chunk manifest (svgen_manifest.json) written at finalize
+#: 2: chunk manifest (svgen_manifest.json) written at finalize; 3: the sharded layout (:func:`array_layout`). Readers
+#: read both: the layout lives in each array's zarr.json, and the manifest lists one object per task either way.
+SCHEMA_VERSION = 3
+#: per-sample arrays smaller than this get one inner chunk per shard (see :func:`array_layout`)
+SMALL_SAMPLE_BYTES = 4096
 MANIFEST = "svgen_manifest.json"
 CREATING_SUFFIX = ".creating"
 PARTIAL_SUFFIX = ".partial"
@@ -173,8 +180,30 @@ def recorded_path(path: str | os.PathLike, out: str | os.PathLike) -> str:
 
 
 def _compressors():
-    # zstd: good ratio on maps/renders at speed; CRC32C: detects corrupted chunks on read.
-    return [ZstdCodec(level=5), Crc32cCodec()]
+    # zstd level 3, in the zarr v3 spec so that xarray and any zarr reader open the stores (docs/CODECS.md: the
+    # measured knee, delta + zstd 1, uses numcodecs.delta, outside the spec); CRC32C: detects corrupted chunks.
+    return [ZstdCodec(level=3), Crc32cCodec()]
+
+
+def array_layout(spec: ArraySpec, n: int, chunk: int) -> dict:
+    """The ``create_array`` arguments of one store array: its shape, dtype and layout (local and S3 stores alike).
+
+    One shard per task: samples [c * chunk, (c + 1) * chunk) are one object, written whole by the one task that
+    makes them (never two writers in one shard: DESIGN.md's sharded ``to_zarr`` corruption), so a store has one
+    object per array per task (benchmarks/results/codecs.json: <= 200 per 10,000 views at 64 SVBRDFs per render
+    task). Inside a shard, images and maps are chunked by one sample, so a random read decodes one sample; a
+    per-sample array under :data:`SMALL_SAMPLE_BYTES` (ids, seeds, view parameters) is one inner chunk per shard,
+    because readers read those whole and a chunk per sample would cost more index and checksum than data.
+
+    Args:
+        spec: the array's per-sample spec.
+        n: samples of the store.
+        chunk: samples per task (the shard length along the sample axis).
+    """
+    per_sample = int(np.prod(spec.shape, dtype=np.int64)) * np.dtype(spec.dtype).itemsize
+    inner = 1 if per_sample >= SMALL_SAMPLE_BYTES else chunk
+    return {"shape": (n, *spec.shape), "chunks": (inner, *spec.shape), "shards": (chunk, *spec.shape),
+            "dtype": spec.dtype, "compressors": _compressors(), "fill_value": 0}
 
 
 class StoreWriter:
@@ -285,8 +314,7 @@ class StoreWriter:
         shutil.rmtree(self.creating, ignore_errors=True)  # a creation cut short by a kill
         g = zarr.open_group(self.creating, mode="w", zarr_format=3)
         for name, spec in self.arrays.items():
-            g.create_array(name, shape=(self.n, *spec.shape), chunks=(self.chunk, *spec.shape), dtype=spec.dtype,
-                           compressors=_compressors(), fill_value=0,
+            g.create_array(name, **array_layout(spec, self.n, self.chunk),
                            dimension_names=spec.dimension_names(name), attributes=spec.array_attrs())
         g.attrs.update({
             "svgen": {
@@ -346,8 +374,8 @@ class StoreWriter:
                 manifest["arrays"][name][c] = rec[name]
         meta = dict(g.attrs)
         meta.update(attrs or {})
-        # a partial started by an older svgen (schema 1, "ok" markers) gets its manifest here, hence schema 2
-        meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST, "schema_version": SCHEMA_VERSION}
+        meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST,
+                         "schema_version": finished_schema(meta["svgen"])}
         now = _store_versions()["svgen"]
         if meta["svgen"].get("versions", {}).get("svgen") != now:  # resumed by other code than started it
             meta["svgen"]["versions"] = {**meta["svgen"].get("versions", {}), "svgen_finished_by": now}
@@ -371,6 +399,13 @@ class StoreWriter:
         os.remove(self.lockfile)
         self.__exit__()
         return self.final
+
+
+def finished_schema(svgen: dict) -> int:
+    """The schema a finished store records: the one its partial was created with (a partial an older svgen started
+    keeps that svgen's unsharded layout: zarr writes by each array's own metadata), at least 2, since finalize
+    writes the manifest (a schema 1 partial, with "ok" markers, gets it here)."""
+    return max(2, int(svgen.get("schema_version", 1)))
 
 
 def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, np.ndarray]) -> None:
@@ -637,7 +672,8 @@ def read_region(g: zarr.Group, name: str, start: int, stop: int) -> np.ndarray:
     try:
         return g[name][start:stop]
     except Exception as e:
-        chunk = g[name].chunks[0]
+        arr = g[name]
+        chunk = (arr.shards or arr.chunks)[0]  # the object: a shard (schema 3) or a chunk (schema 2)
         raise StoreError(f"corrupt data in {g.store} array {name!r}, samples {start}:{stop} "
                          f"(chunk {start // chunk}): {e}") from None
 
@@ -646,7 +682,8 @@ class ChunkCache:
     """Whole decoded chunks of a store's arrays, kept up to a byte budget (FIFO eviction).
 
     Random access by sample (blending random pairs, a training loader drawing random views) would otherwise
-    decompress a whole chunk, and pay zarr's per-call overhead, for every single sample.
+    decompress a whole chunk, and pay zarr's per-call overhead, for every single sample. The unit is zarr's chunk:
+    in a sharded store (schema 3) the inner chunk, one sample of an image or map array (:func:`array_layout`).
 
     Args:
         group: an open store.

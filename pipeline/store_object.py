@@ -135,8 +135,7 @@ class ObjectStoreWriter(S.StoreWriter):
         st = self.loc.zarr_store(read_only=False)
         g = zarr.open_group(st, mode="w", zarr_format=3)  # clears the prefix (a creation cut short)
         for name, spec in self.arrays.items():
-            g.create_array(name, shape=(self.n, *spec.shape), chunks=(self.chunk, *spec.shape), dtype=spec.dtype,
-                           compressors=S._compressors(), fill_value=0, dimension_names=None)
+            g.create_array(name, **S.array_layout(spec, self.n, self.chunk), dimension_names=None)
         S._kill_hook("create")
         # the svgen attributes last: until they exist the prefix is a creation cut short, recreated by a rerun
         g.attrs.update({
@@ -243,7 +242,7 @@ class ObjectStoreWriter(S.StoreWriter):
             meta = dict(zarr.open_group(st, mode="r").attrs)
             meta.update(attrs or {})
             meta["svgen"] = {**meta["svgen"], "complete": False, "manifest": S.MANIFEST,
-                             "schema_version": S.SCHEMA_VERSION}
+                             "schema_version": S.finished_schema(meta["svgen"])}
             zarr.open_group(st, mode="r+").attrs.put(meta)
             zarr.consolidate_metadata(st)
             self.loc.write(S.MANIFEST, json.dumps(manifest, sort_keys=True, separators=(",", ":")).encode())
