@@ -106,3 +106,31 @@ def test_random_reads_decode_single_svbrdfs(reference):
     img = [r.image(i) for i in (11, 0, 4)]
     assert all(i.shape == (32, 32, 3) and i.mean() > 0.01 for i in img)
     assert {k[1] for k in r._cache._chunks if k[0] == "image"} == {5, 0, 2}
+
+
+def test_a_schema_2_store_stays_readable(variants, reference, tmp_path, monkeypatch):
+    """A store in the layout before sharding (schema 2: one plain zstd 5 chunk per task) opens, verifies, reads in
+    xarray and renders to the same images as the sharded store of the same variants."""
+    import xarray as xr
+    from zarr.codecs import Crc32cCodec, ZstdCodec
+
+    from pipeline import store as S
+
+    def unsharded(spec, n, chunk):
+        return {"shape": (n, *spec.shape), "chunks": (chunk, *spec.shape), "dtype": spec.dtype,
+                "compressors": [ZstdCodec(level=5), Crc32cCodec()], "fill_value": 0}
+
+    old = tmp_path / "old.zarr"
+    with monkeypatch.context() as m:  # svgen as it was: schema 2, unsharded
+        m.setattr(S, "array_layout", unsharded)
+        m.setattr(S, "SCHEMA_VERSION", 2)
+        run_sample(old, build(SampleConfig, "tiny", presets=PRESETS, per_preset=N_SVBRDF // 2, chunk=CHUNK),
+                   workers=0)
+    g = open_store(old, "variants")
+    assert g.attrs["svgen"]["schema_version"] == 2 and g["diffuse"].shards is None
+    assert verify_store(old) == verify_store(variants)
+    ds_old, ds_new = xr.open_zarr(old), xr.open_zarr(variants)
+    np.testing.assert_array_equal(ds_old.diffuse.values, ds_new.diffuse.values)
+    out = tmp_path / "renders.zarr"
+    run_render(old, out, build(RenderConfig, "tiny", res=32, views=2, chunk=CHUNK), workers=0)
+    np.testing.assert_array_equal(RendersReader(out).group["image"][:], RendersReader(reference).group["image"][:])
