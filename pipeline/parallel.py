@@ -129,8 +129,9 @@ def worker_threads(hosts: dict[str, int]) -> int:
 
 
 def threads_per_worker(client) -> int:
-    """The budget :func:`worker_threads` gives on the first worker (benchmarks record it)."""
-    return next(iter(client.run(worker_threads, workers_per_host(client)).values()), 1)
+    """The budget :func:`worker_threads` gives on a worker (benchmarks record it). A task, not ``client.run``:
+    ``get_worker`` finds no worker in a function ``client.run`` calls."""
+    return int(client.submit(worker_threads, workers_per_host(client), pure=False).result())
 
 
 class _Permanent:
