@@ -25,11 +25,10 @@ from s3_fixtures import BUCKET, s3, s3_server  # noqa: F401  (fixtures)
 from test_store_s3 import assert_same_store
 
 from conftest import stop_processes
-from pipeline.config import SampleConfig
-from pipeline.sample import run_sample
-from svcore.config import build
 
 N_SVBRDF = 6
+SAMPLE = ["--config-preset", "tiny", "--preset", "paint/glossy_red", "--preset", "wood/mahogany_veneer",
+          "--per-preset", str(N_SVBRDF // 2), "--chunk", "2"]  # 3 chunk tasks
 ARGS = ["--config-preset", "tiny", "--res", "32", "--views", "2", "--chunk", "1"]  # 6 chunk tasks
 WORKER_KEYS = ("WORKERKEY0", "WORKERKEY1")
 CLIENT_KEY = "CLIENTKEY"
@@ -78,12 +77,12 @@ class Cluster:
                                         "--dashboard-address", ":0"], stdout=subprocess.DEVNULL,
                                        stderr=subprocess.DEVNULL, env={**_base_env(), **(scheduler_env or {})})]
 
-    def add_worker(self, env: dict[str, str]) -> subprocess.Popen:
-        # --no-nanny: the worker is this process, so a SIGKILL to it is the death of a worker (a nanny would
-        # restart it in place)
-        p = subprocess.Popen([self.dask, "worker", self.address, "--nthreads", "1", "--no-nanny",
-                              "--dashboard-address", ":0", "--host", "127.0.0.1"], stdout=subprocess.DEVNULL,
-                             stderr=subprocess.DEVNULL, env=env)
+    def add_worker(self, env: dict[str, str], nanny: bool = True) -> subprocess.Popen:
+        """A worker as README says (under a nanny, which restarts it if it dies), or without one (``nanny=False``:
+        the worker is this process, so a SIGKILL to it is the death of a worker, not restarted in place)."""
+        p = subprocess.Popen([self.dask, "worker", self.address, "--nthreads", "1", "--dashboard-address", ":0",
+                              "--host", "127.0.0.1", *(() if nanny else ("--no-nanny",))],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
         self.procs.append(p)
         self.workers.append(p)
         return p
@@ -113,24 +112,21 @@ def cluster():
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):
-    """(local variants store, local reference renders store rendered in one process)."""
+    """(local variants store, local renders store of it), each written by one process (--workers 0)."""
     d = tmp_path_factory.mktemp("s3cluster")
-    variants = d / "variants.zarr"
-    run_sample(variants, build(SampleConfig, "tiny", presets=("paint/glossy_red", "wood/mahogany_veneer"),
-                               per_preset=N_SVBRDF // 2), workers=0)
-    ref = d / "ref.zarr"
-    r = subprocess.run(_svgen("render", variants, ref, *ARGS, "--workers", "0"), capture_output=True, text=True,
-                       env=_base_env(), timeout=300)
-    assert r.returncode == 0, r.stderr
+    variants, ref = d / "variants.zarr", d / "ref.zarr"
+    for cmd in (("sample", variants, *SAMPLE), ("render", variants, ref, *ARGS)):
+        r = subprocess.run(_svgen(*cmd, "--workers", "0"), capture_output=True, text=True, env=_base_env(),
+                           timeout=300)
+        assert r.returncode == 0, r.stderr
     return variants, ref
 
 
-def client_cmd(s3, src: str, out: str, address: str) -> list[str]:
+def client_cmd(s3, address: str, *args) -> list[str]:
     """The client's command: endpoint and its own credentials on its command line only (not in its environment,
     so nothing of them can reach a worker but through svgen itself)."""
-    return _svgen("render", src, out, *ARGS, "--scheduler-address", address,
-                  "--storage-option", f"endpoint_url={s3.endpoint}", "--storage-option", f"key={CLIENT_KEY}",
-                  "--storage-option", "secret=client-secret")
+    return _svgen(*args, "--scheduler-address", address, "--storage-option", f"endpoint_url={s3.endpoint}",
+                  "--storage-option", f"key={CLIENT_KEY}", "--storage-option", "secret=client-secret")
 
 
 @pytest.fixture
@@ -155,33 +151,35 @@ def recording(s3, monkeypatch):
 
 def test_separate_process_cluster_writes_s3_with_its_own_credentials(s3, inputs, cluster, recording):
     """`dask scheduler` + 2 `dask worker` processes whose environment alone holds the endpoint and their
-    credentials; `svgen render s3://… --scheduler-address` gives the bytes of a one-process local run, every
-    chunk object and marker was put by a worker (signed with a worker's key), and the client put only metadata,
-    the manifest and the lock."""
+    credentials; `svgen sample` and `svgen render` to s3:// with --scheduler-address give the bytes of
+    one-process local runs, every chunk object and marker was put by a worker (signed with a worker's key), and
+    the client put only metadata, the manifest and the lock."""
     variants, ref = inputs
-    s3.fs().put(str(variants), f"{s3.bucket}/in/variants.zarr", recursive=True)
     c = cluster()
     for key in WORKER_KEYS:
         c.add_worker(worker_env(s3.endpoint, key))
     c.wait(2)
-    out = s3.url("r.zarr")
-    r = subprocess.run(client_cmd(s3, s3.url("in/variants.zarr"), out, c.address), capture_output=True, text=True,
-                       env=_base_env(), timeout=300)
-    assert r.returncode == 0, r.stderr
-    assert_same_store(s3, out, ref)
+    for cmd in (("sample", s3.url("v.zarr"), *SAMPLE), ("render", s3.url("v.zarr"), s3.url("r.zarr"), *ARGS)):
+        r = subprocess.run(client_cmd(s3, c.address, *cmd), capture_output=True, text=True, env=_base_env(),
+                           timeout=300)
+        assert r.returncode == 0, r.stderr
+    assert_same_store(s3, s3.url("v.zarr"), variants)
+    assert_same_store(s3, s3.url("r.zarr"), ref)
 
-    puts = [(key, who) for method, key, who in recording() if method == "PUT" and key.startswith("r.zarr")]
-    chunk_puts = [(k, w) for k, w in puts if "/c/" in k or "/.done/" in k]
-    writers = {w for _, w in chunk_puts}
-    assert chunk_puts and writers == set(WORKER_KEYS), \
-        f"chunk objects and markers were put by {writers}, not by both workers alone"
-    assert {k for k, _ in chunk_puts if "/c/" in k} == {
-        f"r.zarr/{p.relative_to(ref)}" for p in ref.rglob("*") if p.is_file() and "/c/" in str(p.relative_to(ref))}
-    client = sorted({k for k, w in puts if w == CLIENT_KEY})
-    assert "r.zarr/zarr.json" in client and "r.zarr/svgen_manifest.json" in client, client  # it commits
-    assert {w for k, w in puts if k.endswith("zarr.json") or k.endswith("svgen_manifest.json")
-            or k.endswith(".lock")} == {CLIENT_KEY}, "a worker wrote metadata, the manifest or the lock"
-    assert not [k for k in client if "/c/" in k or "/.done/" in k], "the client wrote chunks itself"
+    for name, local in (("v.zarr", variants), ("r.zarr", ref)):
+        puts = [(key, who) for method, key, who in recording() if method == "PUT" and key.startswith(name)]
+        chunk_puts = [(k, w) for k, w in puts if "/c/" in k or "/.done/" in k]
+        writers = {w for _, w in chunk_puts}
+        assert chunk_puts and writers == set(WORKER_KEYS), \
+            f"{name}: chunk objects and markers were put by {writers}, not by both workers alone"
+        assert {k for k, _ in chunk_puts if "/c/" in k} == {
+            f"{name}/{p.relative_to(local)}" for p in local.rglob("*") if p.is_file() and "/c/" in
+            str(p.relative_to(local))}
+        client = sorted({k for k, w in puts if w == CLIENT_KEY})
+        assert f"{name}/zarr.json" in client and f"{name}/svgen_manifest.json" in client, client  # it commits
+        assert {w for k, w in puts if k.endswith(("zarr.json", "svgen_manifest.json", ".lock"))} == {CLIENT_KEY}, \
+            f"{name}: a worker wrote metadata, the manifest or the lock"
+        assert not [k for k in client if "/c/" in k or "/.done/" in k], f"{name}: the client wrote chunks itself"
 
 
 def _processing(address: str) -> dict[str, list]:
@@ -210,12 +208,12 @@ def test_worker_killed_mid_task_the_store_ends_identical(s3, inputs, cluster, tm
     s3.fs().put(str(variants), f"{s3.bucket}/in/variants.zarr", recursive=True)
     c = cluster()
     for i in range(3):
-        c.add_worker(worker_env(s3.endpoint, f"WORKERKEY{i}"))
+        c.add_worker(worker_env(s3.endpoint, f"WORKERKEY{i}"), nanny=False)
     c.wait(3)
     pids = _pids(c.address)
     out = s3.url("k.zarr")
-    proc = subprocess.Popen(client_cmd(s3, s3.url("in/variants.zarr"), out, c.address), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=_base_env())
+    proc = subprocess.Popen(client_cmd(s3, c.address, "render", s3.url("in/variants.zarr"), out, *ARGS),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_base_env())
     victim, task = None, None
     deadline = time.time() + 180
     while victim is None and time.time() < deadline and proc.poll() is None:
