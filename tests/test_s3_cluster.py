@@ -240,3 +240,18 @@ def test_worker_killed_mid_task_the_store_ends_identical(s3, inputs, cluster, tm
 
     with Client(c.address, timeout="30s") as cl:
         assert victim not in cl.scheduler_info()["workers"], "the killed worker is still listed"
+
+
+def test_a_worker_without_the_endpoint_fails_with_one_line(s3, cluster):
+    """The client's --storage-option does not travel to the cluster's workers: a worker whose own environment
+    names a closed endpoint fails the run with one line naming that endpoint, and no store is left."""
+    c = cluster()
+    dead = f"http://127.0.0.1:{_free_port()}"
+    c.add_worker(worker_env(dead, WORKER_KEYS[0]))
+    c.wait(1)
+    r = subprocess.run(client_cmd(s3, c.address, "sample", s3.url("v.zarr"), *SAMPLE), capture_output=True,
+                       text=True, env=_base_env(), timeout=300)
+    lines = [ln for ln in r.stderr.strip().splitlines() if ln.strip()]
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert "unreachable" in lines[0] and dead in lines[0], lines[0]
+    assert not s3.fs().find(f"{s3.bucket}/v.zarr"), "a failed run left a store"
