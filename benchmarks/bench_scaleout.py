@@ -9,10 +9,12 @@ excluded), plus whether every store is byte-identical to the 1-worker store.
 S3 rows (issue #12): the same render into an ``s3://`` store on a loopback S3 server (moto's ThreadedMotoServer,
 a Python server: far slower per request than MinIO or AWS, so these rows bound the protocol's overhead from
 above) against local disk with 1 and 2 workers, and the training loader's samples/s from the S3 store (cold
-chunk cache, then warm) against the local store. ``--s3-only`` runs just those on a smaller input.
+chunk cache, then warm) against the local store. ``--s3-only`` runs just those (on ``--svbrdfs`` SVBRDFs) and
+puts them into the results file beside the rows already there, under ``s3_run`` its own command, note and machine
+(the two parts may come from different runs: each says when and how it was measured).
 
-    python3 benchmarks/bench_scaleout.py            # -> benchmarks/results/scaleout.json
-    python3 benchmarks/bench_scaleout.py --s3-only --svbrdfs 4   # -> benchmarks/results/scaleout_s3.json
+    python3 benchmarks/bench_scaleout.py            # -> benchmarks/results/scaleout.json (all rows)
+    python3 benchmarks/bench_scaleout.py --s3-only --svbrdfs 4   # -> the S3 rows of scaleout.json
 """
 from __future__ import annotations
 
@@ -127,7 +129,7 @@ def s3_rows(inp: Path, tmp: Path, n_views: int, steps: int = 20, batch: int = 8)
 
 def main(argv=None) -> None:
     ap = parser(__doc__)
-    ap.add_argument("--out", default=None, help="results file (default: scaleout.json, or scaleout_s3.json)")
+    ap.add_argument("--out", default=None, help="results file (default: benchmarks/results/scaleout.json)")
     ap.add_argument("--s3-only", action="store_true", help="only the S3 rows (render and loader, S3 vs local)")
     ap.add_argument("--svbrdfs", type=int, default=2 * N_PRESET, help="--s3-only: SVBRDFs rendered (2 variants per preset)")
     args = ap.parse_args(argv)
@@ -199,13 +201,33 @@ def _inputs(tmp: Path, svbrdfs: int) -> tuple[Path, int]:
     return inp, len(presets) * 2 * 10
 
 
+S3_KEYS = ("s3_server", "s3_rows", "s3_equals_local", "loader_rows")
+
+
+def merge_s3(out: str | None, res: dict, note: str | None) -> dict:
+    """The results file's record with the S3 part of ``res`` put in (its other rows kept), and under ``s3_run`` the
+    command, note, machine and size of the run that measured the S3 part."""
+    import json
+
+    from harness import command, machine_info
+
+    path = Path(out or RESULTS / "scaleout.json")
+    record = json.loads(path.read_text()) if path.exists() else {"benchmark": "render_scaleout"}
+    # rows written before the harness recorded commands came from the default run
+    record.setdefault("command", "python3 benchmarks/bench_scaleout.py")
+    record.update({k: res[k] for k in S3_KEYS})
+    record["s3_run"] = {"command": command(), "note": note, "svbrdfs": res["svbrdfs"], "views": res["views"],
+                        "res": res["res"], "machine": machine_info()}
+    return record
+
+
 def _main_s3(args) -> None:
     tmp = Path(tempfile.mkdtemp(prefix="svgen-scaleout-s3-"))
     try:
         inp, n_views = _inputs(tmp, args.svbrdfs)
         res = {"benchmark": "render_scaleout_s3", "svbrdfs": n_views // 10, "views": n_views, "res": 256,
                **s3_rows(inp, tmp, n_views)}
-        write_results(args.out or str(RESULTS / "scaleout_s3.json"), res, args.note)
+        write_results(args.out or str(RESULTS / "scaleout.json"), merge_s3(args.out, res, args.note))
         for r in res["s3_rows"]:
             print(f"{r['config']:40s} {r['views_per_s_total']:6.2f} views/s")
         for r in res["loader_rows"]:

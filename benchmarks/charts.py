@@ -61,16 +61,37 @@ def chart_scaleout() -> Path | None:
         return None
     d = json.loads(src.read_text())
     rows = [{k: r[k] for k in ("config", "workers", "views_per_s_total", "views_per_s_steady")} for r in d["rows"]]
+    # the S3 rows (issue #12): whole commands only, to the loopback S3 server and to local disk, from their own run
+    rows += [{"config": r["config"], "workers": r["workers"], "views_per_s_total": r["views_per_s_total"],
+              "views_per_s_steady": None} for r in d.get("s3_rows", [])]
     write_csv(CSV / "chart_scaleout.csv", rows)
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+    loader = d.get("loader_rows", [])
+    height = 3.5 + 0.2 * len(d.get("s3_rows", []))
+    fig, axes = plt.subplots(1, 2 if loader else 1, figsize=(11 if loader else 7, height),
+                             gridspec_kw={"width_ratios": [3, 2]} if loader else None, squeeze=False)
+    ax = axes[0][0]
     y = range(len(rows))
-    ax.barh([i + 0.2 for i in y], [r["views_per_s_steady"] for r in rows], height=0.4, label="steady state")
+    ax.barh([i + 0.2 for i in y], [r["views_per_s_steady"] or 0 for r in rows], height=0.4, label="steady state")
     ax.barh([i - 0.2 for i in y], [r["views_per_s_total"] for r in rows], height=0.4,
             label="whole command (cluster start included)")
     ax.set_yticks(list(y), [r["config"] for r in rows], fontsize=8)
+    s3 = d.get("s3_run")
     ax.set(xlabel="views / s (256², default quality)",
-           title=f"Scale-out on {d['machine']['cpus']} cores (stores identical: {d['stores_identical']})")
+           title=f"Scale-out on {d['machine']['cpus']} cores (stores identical: {d['stores_identical']})"
+           + (f"\nS3 rows: {s3['svbrdfs']} SVBRDFs, moto on loopback, load {s3['machine']['loadavg_1min']}"
+              if s3 else ""))
+    ax.title.set_fontsize(9)
     ax.legend(fontsize=7)
+    if loader:
+        bx = axes[0][1]
+        kinds = [("local_samples_per_s", "local disk"), ("s3_cold_cache_samples_per_s", "S3, cold cache"),
+                 ("s3_warm_cache_samples_per_s", "S3, warm cache")]
+        for j, (key, label) in enumerate(kinds):
+            bx.bar([i + (j - 1) * 0.27 for i in range(len(loader))], [r[key] for r in loader], width=0.27, label=label)
+        bx.set_xticks(range(len(loader)), [f"{r['loader_workers']} loader workers" for r in loader], fontsize=8)
+        bx.set(ylabel="samples / s", title="Training loader: local store vs S3 store")
+        bx.title.set_fontsize(9)
+        bx.legend(fontsize=7)
     return _save(fig, "chart_scaleout.png")
 
 

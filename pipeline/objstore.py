@@ -290,6 +290,13 @@ class ObjectLocation:
                                  f"{_endpoint()}") from None
 
 
+def zarr_location(path, read_only: bool = True):
+    """What ``zarr.open_group`` should open for a store argument: the plain path of a local store, or the
+    FsspecStore of an ``s3://`` store built with :func:`storage_options` (a bare URL handed to zarr would use
+    fsspec's defaults and miss ``--storage-option``)."""
+    return ObjectLocation(str(path)).zarr_store(read_only=read_only) if is_object_url(path) else local_path(path)
+
+
 def _s3fs_options() -> dict:
     return {k: v for k, v in storage_options().items()}
 

@@ -139,7 +139,9 @@ def record_split(partial) -> dict:
 
     from svcore.split import split_record
 
-    g = zarr.open_group(partial, mode="r")
+    from ..objstore import zarr_location
+
+    g = zarr.open_group(zarr_location(partial), mode="r")
     names = list(g.attrs.get("presets", []))
     ids = [tuple(names[p] for p in row if p >= 0) for row in g["preset"][:]]
     rec = split_record(ids, "svbrdf")
