@@ -201,6 +201,7 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
     bar = progress(total=total_units or len(chunks), desc=desc, unit=unit, initial=done_units)
     try:
         with dask_client(workers, address) as client:
+            from distributed import KilledWorker  # dask only imported for a stage that runs tasks
             task = functools.partial(_on_worker, fn, workers_per_host(client))
             window = max(8, WINDOW_PER_WORKER * len(client.scheduler_info().get("workers", {})))
             todo = iter(chunks)
@@ -217,7 +218,12 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
             try:
                 for fut in running:
                     pending.discard(fut)
-                    n = fut.result()  # re-raises the worker's exception after the retries
+                    try:
+                        n = fut.result()  # re-raises the worker's exception after the retries
+                    except KilledWorker as e:  # dask's own retries after worker deaths are used up
+                        raise SvgenError(
+                            "the workers running a chunk task kept dying (dask KilledWorker after the scheduler's "
+                            "allowed-failures: out of memory, or killed?); the store is resumable: rerun the command") from e
                     if isinstance(n, _Permanent):
                         raise n.error  # SvgenError stays an SvgenError, ENOSPC an OSError
                     written += n

@@ -88,3 +88,19 @@ def test_the_client_keeps_a_window_of_tasks_not_the_whole_stage(tmp_path):
     # + 2: a finished task's key leaves the scheduler asynchronously after the client drops its future, so the
     # next task can start while one or two finished ones are still listed (seen: window + 1)
     assert max(seen.values()) <= window + 2, f"the scheduler held {max(seen.values())} tasks; the window is {window}"
+
+
+def _die(chunk: int, threads: int) -> int:
+    os._exit(1)  # the worker process dies mid-task, as under the OOM killer
+
+
+def test_a_task_whose_workers_keep_dying_is_one_clear_error():
+    """When the scheduler gives up on a task whose workers died (dask's KilledWorker after allowed-failures), the
+    stage fails with one SvgenError line that says what happened and that a rerun resumes, not an internal error."""
+    import dask
+
+    from svcore.errors import SvgenError
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        with pytest.raises(SvgenError, match="kept dying.*rerun the command"):
+            run_chunks(_die, [0], workers=1)
