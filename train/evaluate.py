@@ -29,7 +29,7 @@ from svcore.progress import progress
 from . import runinfo
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .config import Config
-from .data import PairDataset, open_source, split_by_source
+from .data import PairDataset, open_source, split_for
 from .eval_chart import groups_of, plot_eval
 from .render import flash_render
 
@@ -50,7 +50,7 @@ def register_suite(name: str, fn: Callable) -> None:
 def _heldout(cfg: Config, store: str | None):
     data = cfg.data.model_copy(update={"store": store}) if store else cfg.data
     src = open_source(data)
-    _, test = split_by_source(src, cfg.data.holdout, cfg.optim.seed)
+    _, test = split_for(src, cfg.data.model_copy(update={"blends": True}))  # the held-out side: never filtered
     return {"heldout": (src, test)}
 
 
@@ -264,7 +264,7 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     refuse_inside(out_dir, [s for s in (store, cfg.data.store) if s])
     groups = SUITES[suite](cfg, store)
     train_src = open_source(cfg.data)  # baseline means: the training split of the training store
-    train_idx, _ = split_by_source(train_src, cfg.data.holdout, cfg.optim.seed)
+    train_idx, _ = split_for(train_src, cfg.data)
     means = train_means(train_src, train_idx, cfg.data.crop, cfg.optim.seed)
     out_groups = {}
     for name, (src, idx) in groups.items():

@@ -35,7 +35,7 @@ from svcore.versions import library_versions
 
 from . import checkpoint, dvc_metrics, runinfo
 from .config import Config, OptimConfig
-from .data import PairDataset, make_loader, open_source, split_by_source
+from .data import PairDataset, make_loader, open_source, split_for
 from .device import Placement, placement
 from .distributed import (PeerLost, World, broadcast, check_world, gather, is_collective_failure,
                           last_checkpoint_note, mean_over_ranks, pause_hook, process_group, world_from_env)
@@ -85,6 +85,25 @@ def lr_at(o: OptimConfig, step: int) -> float:
     return o.lr * (o.lr_final + (1.0 - o.lr_final) * 0.5 * (1.0 + math.cos(math.pi * t)))
 
 
+def loss_terms(pred: torch.Tensor, maps: torch.Tensor, loss_fn, gen: torch.Generator, o: OptimConfig,
+               configs: LossConfigs | None = None) -> torch.Tensor:
+    """The training loss: ``render_weight`` x the rendering loss + ``map_l1`` x L1 on the packed maps + ``normal_l2``
+    x squared error on the normals' x and y; a term of weight 0 is not computed (the L1 arm renders nothing).
+
+    Args:
+        pred, maps: (B, 10, H, W) float32 predicted and target packed maps.
+    """
+    terms = []
+    if o.render_weight > 0:
+        r = loss_fn(pred, maps, gen, configs)
+        terms.append(r if o.render_weight == 1.0 else o.render_weight * r)
+    if o.map_l1 > 0:
+        terms.append(o.map_l1 * (pred - maps).abs().mean())
+    if o.normal_l2 > 0:
+        terms.append(o.normal_l2 * ((pred[:, 0:2] - maps[:, 0:2]) ** 2).mean())
+    return sum(terms[1:], terms[0])  # config validation guarantees at least one term
+
+
 def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, image: torch.Tensor, maps: torch.Tensor,
                gen: torch.Generator, o: OptimConfig, step: int, *, place: Placement | None = None,
                scaler: torch.amp.GradScaler | None = None, configs: LossConfigs | None = None) -> tuple[float, float]:
@@ -107,11 +126,7 @@ def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, imag
     # Everything after the network is float32 (train/device.py lists the fp32 islands): the loss upcasts anyway,
     # the map terms are taken on the same float32 prediction.
     pred = pred.float()
-    loss = loss_fn(pred, maps, gen, configs)
-    if o.map_l1 > 0:
-        loss = loss + o.map_l1 * (pred - maps).abs().mean()
-    if o.normal_l2 > 0:
-        loss = loss + o.normal_l2 * ((pred[:, 0:2] - maps[:, 0:2]) ** 2).mean()
+    loss = loss_terms(pred, maps, loss_fn, gen, o, configs)
     opt.zero_grad(set_to_none=True)
     scaled = scaler is not None and scaler.is_enabled()
     (scaler.scale(loss) if scaled else loss).backward()
@@ -294,7 +309,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None
     global_batch, rank_batch = world.batches(o.batch_size, cfg.compute.global_batch)  # uneven: refused before writing
     # open the data first: a bad store must fail before the run directory exists
     src = source if source is not None else open_source(cfg.data)
-    train_idx, test_idx = split_by_source(src, cfg.data.holdout, o.seed)
+    train_idx, test_idx = split_for(src, cfg.data)
     runinfo.check_run(cfg, out_dir, len(train_idx), global_batch, rank_batch, place.device, world.local_size)
     out = Path(out_dir)
     if world.main:
