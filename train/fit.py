@@ -33,12 +33,13 @@ from svcore.progress import progress
 from svcore.seeds import stream_seed
 from svcore.versions import library_versions
 
-from . import checkpoint, dvc_metrics, runinfo
+from . import checkpoint, dvc_metrics, heldout, runinfo
 from .config import Config, OptimConfig
 from .data import PairDataset, make_loader, open_source, split_for
 from .device import Placement, placement
 from .distributed import (PeerLost, World, broadcast, check_world, gather, is_collective_failure,
                           last_checkpoint_note, mean_over_ranks, pause_hook, process_group, world_from_env)
+from .heldout import HeldoutProbe, TrainClock
 from .loss import LossConfigs, make_loss, sample_configs
 from .net import SVBRDFNet, count_parameters
 
@@ -356,10 +357,23 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
     def save(step: int) -> None:
         st = trainer.state(step, losses)  # every rank (gathers the ranks' RNG states)
         st["resume_key"] = key
+        st["heldout"], st["train_clock"] = heldout_rows, clock.totals()  # a resumed run continues from them
         if world.main:
             checkpoint.save(ckpt_path, st)
 
+    probe = HeldoutProbe(src, test_idx, cfg.data.crop, cfg.data.eval_views, o.batch_size) \
+        if o.eval_every and world.main else None
+    heldout_rows = list(state.get("heldout", [])) if state is not None else []
+    clock = TrainClock(*(state.get("train_clock", (0.0, 0.0)) if state is not None else (0.0, 0.0)))
+
+    def probe_at(step: int) -> None:  # the clock is stopped around it: evaluation is not training time
+        wall, cpu = clock.stop()
+        if probe is not None and not any(r["step"] == step for r in heldout_rows):
+            heldout_rows.append({"step": step, "wall_s": wall, "cpu_s": cpu, **probe(trainer.net, place.device)})
+        clock.start()
+
     step = start
+    probe_at(start)
     t0 = time.perf_counter()
     bar = progress(total=o.iterations, desc="fit", unit="it", initial=start, disable=(not world.main) or (
         None if show_progress is None else not show_progress))
@@ -371,6 +385,8 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
             losses.append(loss)
             bar.update(1)
             bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}")
+            if o.eval_every and step % o.eval_every == 0:
+                probe_at(step)
             if step % o.checkpoint_every == 0 and step < stop:
                 save(step)
     except KeyboardInterrupt:
@@ -381,14 +397,19 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
         raise
     bar.close()
     elapsed = time.perf_counter() - t0
+    if step >= o.iterations:
+        probe_at(step)  # the last point of the curve (nothing new when eval_every divides iterations)
+    clock.stop()
     save(step)
     extra = {"it_per_s": (step - start) / elapsed if step > start and elapsed > 0 else None,
              "parameters": count_parameters(trainer.net), "train_samples": int(len(train_idx)),
              "test_samples": int(len(test_idx)), "done": step >= o.iterations, "resumed_from": resumed_from,
              "device": str(place.device), "precision": place.precision, "world_size": world.size,
              "global_batch": trainer.global_batch}
+    extra["train_wall_s"], extra["train_cpu_s"] = clock.wall, clock.cpu
     if not world.main:
         return {"step": step, **extra}
+    heldout.write(out / heldout.FILE, heldout_rows)
     checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": trainer.net.state_dict(), "step": step,
                                        "provenance": provenance(cfg, src)})
     return _write_outputs(out, cfg, losses, extra)
