@@ -131,10 +131,10 @@ def calibrate(project: Path, grid: dict, store: str, steps: tuple[int, int], ext
 
 # --- 2-3. queue and run -----------------------------------------------------------------------------------------
 
-def queue(project: Path, name: str, sets: dict[str, object]) -> str:
+def queue(project: Path, name: str, sets: dict[str, object], targets=TARGETS) -> str:
     """``dvc exp run --queue`` one experiment; returns the command."""
     cmd = ["dvc", "exp", "run", "--queue", "-n", name,
-           *itertools.chain.from_iterable(("-S", f"train.{k}={yaml_value(v)}") for k, v in sets.items()), *TARGETS]
+           *itertools.chain.from_iterable(("-S", f"train.{k}={yaml_value(v)}") for k, v in sets.items()), *targets]
     sh(cmd, project)
     return shlex.join(cmd)
 
@@ -176,9 +176,15 @@ def exp_show(project: Path) -> dict[str, dict]:
     return out
 
 
-def git_file(project: Path, rev: str, path: str) -> str | None:
-    r = sh(["git", "show", f"{rev}:{path}"], project, check=False)
-    return r.stdout if r.returncode == 0 else None
+def exp_file(project: Path, rev: str, path: str) -> str | None:
+    """A stage output of an experiment's commit, from DVC's cache (the run outputs are cached: runs/ is not in git);
+    None when that experiment has no such output."""
+    import dvc.api
+
+    try:
+        return dvc.api.read(path, repo=str(project), rev=rev)
+    except Exception:  # noqa: BLE001 -- dvc raises several types for "not there" (no stage, not in cache)
+        return None
 
 
 def read_csv(text: str | None) -> list[dict]:
@@ -190,10 +196,10 @@ def read_csv(text: str | None) -> list[dict]:
 def per_view_of(project: Path, rev: str) -> dict[str, list[dict]]:
     """suite -> per-view rows of one experiment (held-out, stress and every extra store)."""
     paths = dict(PER_VIEW)
-    stores = git_file(project, rev, EXTRA_STORES)
+    stores = exp_file(project, rev, EXTRA_STORES)
     for name in json.loads(stores) if stores else {}:
         paths[f"extra:{name}"] = f"runs/eval_extra/stores/{name}/per_view.csv"
-    return {s: rows for s, p in paths.items() if (rows := read_csv(git_file(project, rev, p)))}
+    return {s: rows for s, p in paths.items() if (rows := read_csv(exp_file(project, rev, p)))}
 
 
 # --- 5. effects -------------------------------------------------------------------------------------------------
@@ -254,14 +260,14 @@ def collect(project: Path, grid: dict, names: dict, commands: dict, statuses: di
             runs.setdefault(cell, {})
             continue
         rev = exp["rev"]
-        fit_metrics = json.loads(git_file(project, rev, FIT_METRICS) or "{}")
+        fit_metrics = json.loads(exp_file(project, rev, FIT_METRICS) or "{}")
         pv = per_view_of(project, rev)
         runs.setdefault(cell, {})[str(seed)] = {
             "exp": name, "rev": rev, "status": statuses.get(name), "command": commands[(cell, seed)],
             "train_params": exp["params"].get("train"), "metrics": exp["metrics"],
             "steps": fit_metrics.get("step"), "train_cpu_s": fit_metrics.get("train_cpu_s"),
             "train_wall_s": fit_metrics.get("train_wall_s"),
-            "heldout_curve": read_csv(git_file(project, rev, HELDOUT_CSV)),
+            "heldout_curve": read_csv(exp_file(project, rev, HELDOUT_CSV)),
             "views": views_of(pv), "per_view": {s: [{k: r[k] for k in ("svbrdf", *COLUMNS)} for r in rows]
                                                 for s, rows in pv.items()}}
     return runs
@@ -280,6 +286,7 @@ def main(argv=None) -> int:
     ap.add_argument("--store", default="data/renders.zarr", help="the fit stage's store (calibration runs)")
     ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                     help="a train config override for every cell and the calibration (key without 'train.')")
+    ap.add_argument("--targets", nargs="+", default=list(TARGETS), help="the stages each experiment runs")
     ap.add_argument("--jobs", type=int, default=1, help="experiments run at once (dvc queue start -j)")
     ap.add_argument("--tag", default=time.strftime("abl%m%d%H%M"), help="experiment name prefix")
     ap.add_argument("--project", type=Path, default=ROOT, help="the DVC project (a git repository)")
@@ -311,7 +318,7 @@ def main(argv=None) -> int:
             sets = {**common_typed, **overrides(arms), "optim.seed": seed, "optim.iterations": steps[cell],
                     "optim.eval_every": max(1, steps[cell] // a.points), "data.split_seed": a.split_seed}
             names[(cell, seed)] = name
-            commands[(cell, seed)] = queue(project, name, sets)
+            commands[(cell, seed)] = queue(project, name, sets, a.targets)
     t0 = time.perf_counter()
     statuses = run_queue(project, a.jobs)
     wall = time.perf_counter() - t0
@@ -320,7 +327,7 @@ def main(argv=None) -> int:
     eff = effects(grid, runs)
     result = {"design": a.design, "seeds": a.seeds, "cpu_budget_s": a.cpu_budget if a.steps is None else None,
               "split_seed": a.split_seed, "factors": FACTORS, "defaults": DEFAULTS, "claims": CLAIMS,
-              "targets": list(TARGETS), "common_overrides": common_typed, "calibration": calib,
+              "targets": a.targets, "common_overrides": common_typed, "calibration": calib,
               "cells": {c: {"arms": grid[c], "overrides": overrides(grid[c]), "steps": steps[c], "runs": runs[c]}
                         for c in grid},
               "effects": eff, "bootstrap": {"resamples": RESAMPLES, "seed": BOOT_SEED},
