@@ -98,10 +98,12 @@ def test_variants_only_drops_exactly_the_blends_and_keeps_the_heldout_views(rend
     src = RendersReader(renders)
     kinds = src.input_kinds_of_views()
     assert {"variants", "blends"} <= set(kinds)
-    both = resolve("compact", None, {**TINY_TRAIN, "data.store": str(renders)}).data
+    # 2 of the 6 presets held out: with split seed 0 both sides hold blends (checked below)
+    both = resolve("compact", None, {**TINY_TRAIN, "data.store": str(renders), "data.holdout": 0.3}).data
     var = both.model_copy(update={"blends": False})
     tr_b, te_b = split_for(src, both)
     tr_v, te_v = split_for(src, var)
+    assert any(kinds[i] == "blends" for i in te_b)  # else the next line would prove nothing about blends
     np.testing.assert_array_equal(te_b, te_v)  # the same held-out views for both arms
     assert set(tr_b) - set(tr_v) == {i for i in tr_b if kinds[i] == "blends"} != set()
     assert set(tr_v) <= set(tr_b) and all(kinds[i] == "variants" for i in tr_v)
@@ -163,7 +165,11 @@ def project(tmp_path_factory, renders):
 
 
 @pytest.mark.slow  # 2 DVC experiments of 2 stages each: ~40 s quiet, minutes on the shared 2 cores
-def test_tiny_grid_through_dvc_experiments(project):
+def test_tiny_grid_through_dvc_experiments(project, renders):
+    from pipeline.render.store import RendersReader
+    from train.config import resolve
+    from train.data import split_for
+
     d, env = project
     out = d / "ablation.json"
     cmd = [sys.executable, str(REPO / "benchmarks" / "ablation.py"), "--project", str(d), "--design", "ofat",
@@ -184,7 +190,11 @@ def test_tiny_grid_through_dvc_experiments(project):
             assert [row["step"] for row in r["heldout_curve"]] == [0, 2, 4]
             assert r["heldout_curve"][-1]["cpu_s"] > 0 and "dvc exp run --queue" in r["command"]
             views.add(tuple(r["views"]["heldout"]))
-    assert len(views) == 1 and len(next(iter(views))) > 0  # one held-out set for every cell (split_seed, not seed 1)
+    # one held-out set for every cell: the split of split_seed 0, not of the training seed 1 (which holds out another)
+    cfg = resolve("compact", None, {**TINY_TRAIN, "data.store": str(renders)})
+    expect = [split_for(RendersReader(renders), cfg.data.model_copy(update={"split_seed": s}))[1][:16].tolist()
+              for s in (0, 1)]
+    assert expect[0] != expect[1] and views == {tuple(expect[0])}
     fit = {c: res["cells"][c]["runs"]["1"]["metrics"]["runs/train/fit_metrics.json"]["train_samples"]
            for c in res["cells"]}
     assert fit["data-variants"] < fit["default"]  # the variants-only arm trained on fewer samples
