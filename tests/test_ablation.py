@@ -157,7 +157,7 @@ def project(tmp_path_factory, renders):
     (d / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
     (d / "data").mkdir()
     shutil.copytree(renders, d / "data" / "renders.zarr")
-    # the repository ignores data/ (its stages write it); here the store is a `dvc add`-ed input whose .dvc file git keeps
+    # the repository ignores data/ (its stages write it); here the store is a `dvc add`-ed input: git keeps its .dvc
     gi = d / ".gitignore"
     gi.write_text("".join(line for line in gi.read_text().splitlines(True) if line.strip() != "/data/"))
     _sh("git init -q && dvc add -q data/renders.zarr && git add -A && git commit -qm init", d, env)
@@ -165,7 +165,7 @@ def project(tmp_path_factory, renders):
 
 
 @pytest.mark.slow  # 2 DVC experiments of 2 stages each: ~40 s quiet, minutes on the shared 2 cores
-def test_tiny_grid_through_dvc_experiments(project, renders):
+def test_tiny_grid_through_dvc_experiments(project, renders, monkeypatch):
     from pipeline.render.store import RendersReader
     from train.config import resolve
     from train.data import split_for
@@ -173,14 +173,14 @@ def test_tiny_grid_through_dvc_experiments(project, renders):
     d, env = project
     out = d / "ablation.json"
     cmd = [sys.executable, str(REPO / "benchmarks" / "ablation.py"), "--project", str(d), "--design", "ofat",
-           "--cells", "default", "data-variants", "--seeds", "1", "--steps", "4", "--points", "2",
+           "--cells", "default", "data-variants", "--seeds", "2", "--steps", "4", "--points", "2",
            "--targets", "fit", "eval", "--jobs", "2", "--tag", "t", "--out", str(out), "--note", "test"]
     _sh(cmd, d, env)
     res = json.loads(out.read_text())
     assert set(res["cells"]) == {"default", "data-variants"} and not res["failed"]
     views = set()
     for cell, c in res["cells"].items():
-        assert set(c["runs"]) == {"1"}, cell
+        assert set(c["runs"]) == {"2"}, cell
         for seed, r in c["runs"].items():
             p = r["train_params"]
             # the -S overrides reached the experiment: its params and what it trained
@@ -190,14 +190,48 @@ def test_tiny_grid_through_dvc_experiments(project, renders):
             assert [row["step"] for row in r["heldout_curve"]] == [0, 2, 4]
             assert r["heldout_curve"][-1]["cpu_s"] > 0 and "dvc exp run --queue" in r["command"]
             views.add(tuple(r["views"]["heldout"]))
-    # one held-out set for every cell: the split of split_seed 0, not of the training seed 1 (which holds out another)
+    # one held-out set for every cell: the split of split_seed 0, not of the training seed 2 (another preset)
     cfg = resolve("compact", None, {**TINY_TRAIN, "data.store": str(renders)})
     expect = [split_for(RendersReader(renders), cfg.data.model_copy(update={"split_seed": s}))[1][:16].tolist()
-              for s in (0, 1)]
+              for s in (0, 2)]
     assert expect[0] != expect[1] and views == {tuple(expect[0])}
-    fit = {c: res["cells"][c]["runs"]["1"]["metrics"]["runs/train/fit_metrics.json"]["train_samples"]
+    fit = {c: res["cells"][c]["runs"]["2"]["metrics"]["runs/train/fit_metrics.json"]["train_samples"]
            for c in res["cells"]}
     assert fit["data-variants"] < fit["default"]  # the variants-only arm trained on fewer samples
     e = res["effects"]["blends"]["suites"]["heldout"]["rerender"]
     assert e["seeds"] == [1, 1] and e["ci95"][0] <= e["mean"] <= e["ci95"][1]
     assert (out.with_suffix(".md")).read_text().count("| blends |") == 1
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    from charts_ablation import plot
+
+    png = plot(out, d / "chart_ablation.png")  # chart 7 from this grid's results alone
+    assert png.stat().st_size > 0 and "| blends |" in png.with_suffix(".md").read_text()
+
+
+# --- eval.extra_stores --------------------------------------------------------------------------------------------
+
+def test_eval_extra_evaluates_every_listed_store_and_nothing_for_none(renders, tmp_path):
+    from train.cli import svtrain
+    from train.config import resolve
+    from train.fit import fit
+
+    fit(resolve("compact", None, {**TINY_TRAIN, "data.store": str(renders), "optim.iterations": 2}), tmp_path / "run",
+        resume=False, show_progress=False)
+    params = tmp_path / "params.yaml"
+    params.write_text(yaml.safe_dump({"eval": {"limit": 6, "extra_stores": [str(renders), str(renders)]}}))
+    code, err = call(svtrain, "svtrain", ["eval-extra", "--checkpoint", tmp_path / "run", "--params", params,
+                                         "--out", tmp_path / "extra"])
+    assert code == 0, err
+    table = json.loads((tmp_path / "extra" / "eval_metrics.json").read_text())
+    assert list(table) == ["renders", "renders_2"] and table["renders"] == table["renders_2"]
+    assert set(table["renders"]) == {"rerender", "normal", "diffuse", "roughness", "specular"}
+    rows = (tmp_path / "extra" / "stores" / "renders" / "per_view.csv").read_text().splitlines()
+    assert len(rows) == 1 + 6  # header + eval.limit views
+    params.write_text(yaml.safe_dump({"eval": {"limit": 6, "extra_stores": []}}))
+    code, err = call(svtrain, "svtrain", ["eval-extra", "--checkpoint", tmp_path / "run", "--params", params,
+                                         "--out", tmp_path / "none"])
+    assert code == 0 and json.loads((tmp_path / "none" / "eval_metrics.json").read_text()) == {}
+    params.write_text(yaml.safe_dump({"eval": {"extra_stores": str(renders)}}))  # a string, not a list
+    code, err = call(svtrain, "svtrain", ["eval-extra", "--checkpoint", tmp_path / "run", "--params", params,
+                                         "--out", tmp_path / "bad"])
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "extra_stores must be a list" in err

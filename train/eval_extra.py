@@ -1,9 +1,9 @@
-"""``svtrain eval-extra``: evaluate a run on every renders store listed in params.yaml ``eval.extra_stores`` (e.g. the
-2018 test strips imported with ``svgen import --layout deschaintre --as renders``), the DVC stage ``eval_extra``.
+"""``svtrain eval-extra``: evaluate a run on every renders store listed in params.yaml ``eval.extra_stores`` (e.g.
+the 2018 test strips imported with ``svgen import --layout deschaintre --as renders``), the DVC stage ``eval_extra``.
 
 Each store is evaluated in full (suite ``all``, at most ``eval.limit`` views) into ``<out>/stores/<name>/`` (with
-``stores.json``: name -> path); ``<out>/eval_metrics.json`` holds the model's RMSE per column per store, what `dvc metrics` and `dvc exp show` compare. An
-empty list writes an empty metrics file and evaluates nothing.
+``stores.json``: name -> path); ``<out>/eval_metrics.json`` holds the model's RMSE per column per store, what
+`dvc metrics` and `dvc exp show` compare. An empty list writes an empty metrics file and evaluates nothing.
 """
 from __future__ import annotations
 
