@@ -235,3 +235,32 @@ def test_eval_extra_evaluates_every_listed_store_and_nothing_for_none(renders, t
     code, err = call(svtrain, "svtrain", ["eval-extra", "--checkpoint", tmp_path / "run", "--params", params,
                                          "--out", tmp_path / "bad"])
     assert code == 2 and len(err.strip().splitlines()) == 1 and "extra_stores must be a list" in err
+
+
+# --- the held-out curve within a fit ------------------------------------------------------------------------------
+
+def test_heldout_curve_survives_an_interruption(tmp_path):
+    """optim.eval_every: rows at 0, every eval_every steps and the end; a run stopped at a checkpoint and resumed
+    writes the same steps and errors as an uninterrupted one (the rows and the training clock live in the
+    checkpoint; the errors are deterministic, the clocks are not)."""
+    import csv
+
+    from train.config import resolve
+    from train.fit import fit
+
+    cfg = resolve("compact", None, {**TINY_TRAIN, "data.synthetic_size": 48, "data.synthetic_samples": 24,
+                                    "data.synthetic_materials": 6, "optim.iterations": 6, "optim.eval_every": 2})
+
+    def rows(d):
+        return list(csv.DictReader(open(d / "heldout.csv")))
+
+    fit(cfg, tmp_path / "a", resume=False, show_progress=False)
+    fit(cfg, tmp_path / "b", resume=False, stop_after=4, show_progress=False)
+    m = fit(cfg, tmp_path / "b", resume=True, show_progress=False)
+    a, b = rows(tmp_path / "a"), rows(tmp_path / "b")
+    assert [r["step"] for r in a] == [r["step"] for r in b] == ["0", "2", "4", "6"]
+    for ra, rb in zip(a, b):
+        assert {k: ra[k] for k in ("rerender", "normal", "diffuse")} == {k: rb[k] for k in ("rerender", "normal",
+                                                                                            "diffuse")}
+    cpu = [float(r["cpu_s"]) for r in b]
+    assert cpu[0] == 0 and all(x < y for x, y in zip(cpu, cpu[1:])) and m["train_cpu_s"] >= cpu[-1]
