@@ -264,3 +264,34 @@ def test_heldout_curve_survives_an_interruption(tmp_path):
                                                                                             "diffuse")}
     cpu = [float(r["cpu_s"]) for r in b]
     assert cpu[0] == 0 and all(x < y for x, y in zip(cpu, cpu[1:])) and m["train_cpu_s"] >= cpu[-1]
+
+
+# --- the grid's design and its statistics -------------------------------------------------------------------------
+
+def test_designs_and_the_pairs_each_claim_compares(monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    from ablation import CLAIMS, cells, overrides, pairs_of
+
+    ofat, full = cells("ofat"), cells("full")
+    assert len(ofat) == 5 and len(full) == 12
+    counts = {c: (len(pairs_of(ofat, *CLAIMS[c])), len(pairs_of(full, *CLAIMS[c]))) for c in CLAIMS}
+    assert counts == {"global track": (1, 6), "rendering loss vs L1 on maps": (1, 4), "normal term": (1, 4),
+                      "blends": (1, 6)}
+    l1 = overrides(ofat["loss-l1"])
+    assert l1["optim.render_weight"] == 0 and l1["optim.map_l1"] > 0 and l1["optim.normal_l2"] == 0
+    assert overrides(ofat["global-off"])["model.global_track"] is False
+    assert overrides(ofat["data-variants"])["data.blends"] is False
+
+
+def test_effect_of_a_known_shift_and_of_noise(rng, monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    from ablation_effects import effect
+
+    clusters = np.repeat(np.arange(10), 4)
+    one = rng.uniform(0.1, 0.3, size=(1, 40))
+    e = effect(one, one + 0.05, clusters)  # one seed each: only the SVBRDFs are resampled, the shift is everywhere
+    assert e["mean"] == pytest.approx(0.05) and e["ci95"] == pytest.approx([0.05, 0.05])
+    two = np.concatenate([one, one + 0.1])  # two seeds 0.1 apart: their spread must widen the interval
+    assert np.diff(effect(two, two + 0.05, clusters)["ci95"])[0] > 0.05
+    noisy = effect(rng.uniform(0.1, 0.3, size=(2, 40)), rng.uniform(0.1, 0.3, size=(3, 40)), clusters)  # none
+    assert noisy["ci95"][0] < 0 < noisy["ci95"][1] and noisy["seeds"] == [2, 3] and noisy["svbrdfs"] == 10
