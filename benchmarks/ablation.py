@@ -125,6 +125,9 @@ def calibrate(project: Path, grid: dict, store: str, steps: tuple[int, int], ext
         out[key] = {"cpu_s_per_step": max(1e-6, (runs[1]["train_cpu_s"] - runs[0]["train_cpu_s"]) / d),
                     "wall_s_per_step": max(1e-6, (runs[1]["train_wall_s"] - runs[0]["train_wall_s"]) / d),
                     "runs": runs}
+        # what the training clock counts besides the steps (torch.compile of the loss renderer in the first step, a
+        # few seconds once inductor's disk cache holds it): the curves' CPU axis includes it, the step budget not
+        out[key]["overhead_cpu_s"] = runs[0]["train_cpu_s"] - steps[0] * out[key]["cpu_s_per_step"]
         print(f"calibrated {key}: {out[key]['cpu_s_per_step']:.3f} CPU-s/step", file=sys.stderr)
     return out
 
