@@ -121,9 +121,15 @@ def calibrate(project: Path, grid: dict, store: str, steps: tuple[int, int], ext
                 m = json.loads((Path(tmp) / "metrics.json").read_text())
             runs.append({"steps": n, "train_cpu_s": m["train_cpu_s"], "train_wall_s": m["train_wall_s"],
                          "command": shlex.join(cmd)})
-        d = max(1, steps[1] - steps[0])
-        out[key] = {"cpu_s_per_step": max(1e-6, (runs[1]["train_cpu_s"] - runs[0]["train_cpu_s"]) / d),
-                    "wall_s_per_step": max(1e-6, (runs[1]["train_wall_s"] - runs[0]["train_wall_s"]) / d),
+        d = steps[1] - steps[0]
+        per_step = (runs[1]["train_cpu_s"] - runs[0]["train_cpu_s"]) / d if d > 0 else 0.0
+        # a noisy difference (a loaded machine, too few steps) must not turn into millions of steps
+        floor = runs[1]["train_cpu_s"] / steps[1] / 4
+        if per_step < floor:
+            raise SystemExit(f"calibration of {key} is noise ({per_step:.4f} CPU-s/step from {steps} steps, below a "
+                             f"quarter of the mean {4 * floor:.4f}): use larger --calib-steps or a quieter machine")
+        out[key] = {"cpu_s_per_step": per_step,
+                    "wall_s_per_step": (runs[1]["train_wall_s"] - runs[0]["train_wall_s"]) / d,
                     "runs": runs}
         # what the training clock counts besides the steps (torch.compile of the loss renderer in the first step, a
         # few seconds once inductor's disk cache holds it): the curves' CPU axis includes it, the step budget not
@@ -283,7 +289,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1], help="training seeds (optim.seed) per cell")
     ap.add_argument("--cpu-budget", type=float, default=150.0, help="CPU seconds of training per cell and seed")
     ap.add_argument("--steps", type=int, default=None, help="fixed steps for every cell (skips the calibration)")
-    ap.add_argument("--calib-steps", type=int, nargs=2, default=(5, 25), help="the two calibration runs' steps")
+    ap.add_argument("--calib-steps", type=int, nargs=2, default=(10, 50),
+                    help="the two calibration runs' steps (the second larger)")
     ap.add_argument("--points", type=int, default=8, help="held-out evaluations along each fit (optim.eval_every)")
     ap.add_argument("--split-seed", type=int, default=0, help="train.data.split_seed of every cell")
     ap.add_argument("--store", default="data/renders.zarr", help="the fit stage's store (calibration runs)")
