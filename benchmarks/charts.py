@@ -8,7 +8,9 @@
 3. scale-out: views/s against dask workers, local and a loopback cluster (bench_scaleout.py);
 4. agreement: torch flash render against Mitsuba at increasing spp (bench_agreement.py);
 5. stress: the pipeline's stress-suite evaluation beside its held-out one (runs/eval*, written by `dvc repro`);
-6. codecs: bytes per view against CPU-s per view of the store codecs and layouts (bench_codecs.py).
+6. codecs: bytes per view against CPU-s per view of the store codecs and layouts (bench_codecs.py);
+7. ablation: per claim of the paper, held-out error against training CPU time of both arms with their seed spread,
+   and the effects table beside it (ablation.py, charts_ablation.py).
 A chart whose results file is missing is skipped with a note (run its benchmark first).
 """
 from __future__ import annotations
@@ -139,7 +141,8 @@ def main(argv=None) -> int:
             "agreement": _external("charts_agreement", "chart_agreement", "agreement.json",
                                        "chart_agreement.png"),
             "stress": chart_stress(),
-            "codecs": _external("charts_codecs", "plot", "codecs.json", "chart_codecs.png")}
+            "codecs": _external("charts_codecs", "plot", "codecs.json", "chart_codecs.png"),
+            "ablation": _external("charts_ablation", "plot", "ablation.json", "chart_ablation.png")}
     for name, p in made.items():
         print(f"{name:10s} {p if p else 'skipped: run its benchmark first'}")
     return 0

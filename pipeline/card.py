@@ -187,7 +187,7 @@ def render_card(group) -> str:
     if split:
         out += [f"{split['rule'].capitalize()}. Held out with fraction {split['holdout']} and seed {split['seed']} "
                 f"(stream `{split['seed_stream']}`; what `svtrain` uses with `data.holdout={split['holdout']}` and "
-                f"`optim.seed={split['seed']}`): test materials " + ", ".join(f"`{t}`" for t in
+                f"`data.split_seed={split['seed']}`): test materials " + ", ".join(f"`{t}`" for t in
                                                                              split["test_materials"])
                 + f". Samples: {split['counts']['train']} train, {split['counts']['test']} test, "
                   f"{split['counts']['dropped']} dropped (views of a sample share its split)."]

@@ -36,7 +36,9 @@ from train.config import Config  # noqa: E402
 MACHINE_KEYS = {"train.data.workers"}
 
 #: sections without a config class: key -> comment (their values come from the current params.yaml).
-OTHER_SECTIONS = {"eval": {"limit": "held-out views evaluated (svtrain eval --limit)"}}
+OTHER_SECTIONS = {"eval": {"limit": "held-out views evaluated (svtrain eval --limit)",
+                            "extra_stores": "renders stores evaluated in full by the eval_extra stage (e.g. imported "
+                                            "2018 test strips)"}}
 
 #: section order of the file (the pipeline's order); sections not listed keep their place at the end.
 ORDER = ("import", "sample", "blend", "render", "train", "eval", "stress")

@@ -14,7 +14,7 @@ import numpy as np
 from .errors import StoreError
 from .seeds import stream_rng
 
-#: the split a renders store records: training's defaults (train config ``data.holdout`` and ``optim.seed``).
+#: the split a renders store records: training's defaults (train config ``data.holdout`` and ``data.split_seed``).
 DEFAULT_HOLDOUT = 0.1
 DEFAULT_SEED = 0
 RULE = ("held out by base material: a sample is 'test' when all its materials are held out, 'train' when none is, "

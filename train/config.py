@@ -13,7 +13,7 @@ from typing import Any, ClassVar, Literal
 from pydantic import Field, field_validator, model_validator
 
 from svcore.config import ConfigModel, parse_sets, validate
-from svcore.split import DEFAULT_HOLDOUT
+from svcore.split import DEFAULT_HOLDOUT, DEFAULT_SEED
 from svcore.config import resolve as resolve_config
 
 
@@ -32,6 +32,9 @@ class ModelConfig(ConfigModel):
     """dropout probability on the coarsest decoder levels, training only."""
     dropout_levels: int = Field(3, ge=0)
     """how many of the coarsest decoder levels get dropout (paper: 3)."""
+    global_track: bool = True
+    """the paper's global-feature track (§4.2: instance-norm means -> FC -> SELU, fed back as per-channel biases);
+    false leaves a plain U-Net with instance normalisation (the ablation of benchmarks/ablation.py)."""
     zero_output: bool = False
     """start the output convolution at zero weights, so that the untrained network predicts exactly its output
     biases (a flat normal and a uniform plausible material) instead of random per-pixel maps."""
@@ -54,6 +57,14 @@ class DataConfig(ConfigModel):
     """fraction of source materials/presets held out for evaluation (split by material, not sample)."""
     workers: int = Field(2, ge=0)
     """DataLoader worker processes (0 = load in the main process)."""
+    split_seed: int = Field(DEFAULT_SEED, ge=0, lt=2 ** 64)
+    """seed of the held-out split (:mod:`svcore.split`), separate from ``optim.seed`` so that training seeds vary the
+    training only; the default is the split a renders store records (its ``split`` attribute)."""
+    blends: bool = True
+    """train on the blended SVBRDFs too; false: only on SVBRDFs rendered from a variants store (paper §3's mixing
+    ablation). The held-out split and every evaluation stay the same (they are chosen before this filter)."""
+    eval_views: int = Field(32, ge=1)
+    """held-out views evaluated every ``optim.eval_every`` steps during fit (spread evenly over the held-out split)."""
     synthetic_samples: int = Field(256, ge=1)
     """samples of the synthetic source (only when store is None)."""
     synthetic_size: int = Field(288, ge=1)
@@ -67,7 +78,7 @@ class DataConfig(ConfigModel):
 
 
 class OptimConfig(ConfigModel):
-    """Adam and the schedule (paper: lr 2e-5, beta1 0.5, batch 8, 400k iterations)."""
+    """Adam, the schedule and the loss terms (paper: lr 2e-5, beta1 0.5, batch 8, 400k iterations)."""
 
     lr: float = Field(2e-5, gt=0)
     """Adam learning rate."""
@@ -87,6 +98,9 @@ class OptimConfig(ConfigModel):
     """steps between rows of the loss log."""
     threads: int = Field(0, ge=0)
     """torch intra-op threads (0 = torch's default)."""
+    render_weight: float = Field(1.0, ge=0)
+    """weight of the rendering loss (paper §4.3); 0 with ``map_l1`` > 0 is the paper's L1-on-the-maps comparison
+    (no rendering term is computed at all)."""
     map_l1: float = Field(0.0, ge=0)
     """weight of an L1 term on the packed maps added to the rendering loss (0 = the 2018 paper's loss alone; the
     2019 follow-up, Deschaintre et al. "Flexible SVBRDF capture", mixes both)."""
@@ -101,9 +115,19 @@ class OptimConfig(ConfigModel):
     ``iterations``, a pure function of the step, so resumed runs see the same rates)."""
     lr_final: float = Field(0.05, ge=0, le=1)
     """last learning rate of the cosine schedule as a fraction of lr."""
+    eval_every: int = Field(0, ge=0)
+    """steps between evaluations of ``data.eval_views`` held-out views during fit, written to heldout.csv with the
+    training time so far (evaluation time excluded); 0 = off (heldout.csv then holds only its header)."""
     compile_loss: bool = True
     """torch.compile the loss renderer (fuses its elementwise ops: faster on CPU after a one-off compile, cached
     on disk by inductor; benchmarks/bench_train.py measures both); off in tests."""
+
+
+    @model_validator(mode="after")
+    def _some_loss(self) -> "OptimConfig":
+        if self.render_weight == 0 and self.map_l1 == 0 and self.normal_l2 == 0:
+            raise ValueError("every loss weight is 0 (render_weight, map_l1, normal_l2): nothing to train on")
+        return self
 
 
 #: what ``compute.device`` may say (``train.device.resolve_device`` then checks the machine has it).

@@ -18,7 +18,7 @@ import torch
 from torch.utils.data import DataLoader, Dataset, Sampler
 
 from materials.maps import pack_maps
-from svcore.errors import StoreError
+from svcore.errors import ConfigError, StoreError
 from svcore.seeds import stream_rng
 from svcore.split import held_out_names, split_indices
 
@@ -57,7 +57,7 @@ def preset_ids(src_entry: Any) -> tuple[str, ...]:
 def split_by_source(src: Source, holdout: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Hold out a fraction of the presets; no preset appears on both sides (:mod:`svcore.split`).
 
-    A renders store records the split of training's defaults (``data.holdout``, ``optim.seed``) in its attributes
+    A renders store records the split of training's defaults (``data.holdout``, ``data.split_seed``) in its attributes
     (``split``); with those values its recorded held-out materials are used, so the split is the one an outside
     reader sees. Other values, older stores and other sources compute it.
 
@@ -71,6 +71,25 @@ def split_by_source(src: Source, holdout: float, seed: int = 0) -> tuple[np.ndar
     if stored is not None and stored.get("holdout") == holdout and stored.get("seed") == seed:
         return split_indices(ids, stored["test_materials"])
     return split_indices(ids, held_out_names(ids, holdout, seed))
+
+
+def split_for(src: Source, data) -> tuple[np.ndarray, np.ndarray]:
+    """The (train, test) indices a run with data config ``data`` uses: the split by material of ``data.holdout`` and
+    ``data.split_seed`` (:func:`split_by_source`), then, with ``data.blends`` off, the blends dropped from the
+    training side only, so both arms of the mixing ablation are evaluated on the same held-out views.
+
+    Raises:
+        ConfigError: ``data.blends`` off on a source that does not record which samples are blends.
+    """
+    train, test = split_by_source(src, data.holdout, data.split_seed)
+    if not data.blends:
+        kinds = getattr(src, "input_kinds_of_views", None)
+        if kinds is None:
+            raise ConfigError("train.data.blends=false needs a renders store (it records which SVBRDFs are blends); "
+                              "the synthetic source has none")
+        k = kinds()
+        train = np.asarray([i for i in train if k[i] != "blends"], np.int64)
+    return train, test
 
 
 def augment(image: np.ndarray, maps: np.ndarray, rng: np.random.Generator | None, crop: int,

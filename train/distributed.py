@@ -233,13 +233,13 @@ def _describe(rank: int, failure, error_dir: Path, n: int) -> tuple[int, str]:
 def launch_checked(cfg, out: str | Path, resume: bool | str) -> None:
     """``svtrain fit --nproc N``: every check a worker would make (device, precision, world, global batch, the data
     source) runs here first, so bad input is one line from one process, then :func:`launch`."""
-    from .data import open_source, split_by_source
+    from .data import open_source, split_for
     from .device import placement
 
     place = placement(cfg.compute.device, cfg.compute.precision, 0 if cfg.compute.nproc > 1 else None)
     check_world(cfg.compute.nproc, place.device)
     World(0, cfg.compute.nproc).batches(cfg.optim.batch_size, cfg.compute.global_batch)
-    split_by_source(open_source(cfg.data), cfg.data.holdout, cfg.optim.seed)
+    split_for(open_source(cfg.data), cfg.data)
     launch(cfg, out, cfg.compute.nproc, resume)
 
 

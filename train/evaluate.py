@@ -29,7 +29,7 @@ from svcore.progress import progress
 from . import runinfo
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .config import Config
-from .data import PairDataset, open_source, split_by_source
+from .data import PairDataset, open_source, split_for
 from .eval_chart import groups_of, plot_eval
 from .render import flash_render
 
@@ -37,6 +37,9 @@ from .render import flash_render
 EVAL_LIGHTS = ((0.0, 0.0), (0.5, 0.0), (-0.4, 0.4), (0.3, -0.6), (-0.7, -0.7))
 MAPS = {"normal": NORMAL, "diffuse": DIFFUSE, "roughness": ROUGHNESS, "specular": SPECULAR}
 COLUMNS = ("rerender", "normal", "diffuse", "roughness", "specular")
+#: the key of :func:`evaluate`'s per-view model errors, which run_eval writes to per_view.csv, not eval.json.
+PER_VIEW = "per_view"
+PER_VIEW_FILE = "per_view.csv"
 
 #: suite name -> fn(cfg, store) -> {group name: (source, indices)}.
 SUITES: dict[str, Callable] = {}
@@ -50,7 +53,7 @@ def register_suite(name: str, fn: Callable) -> None:
 def _heldout(cfg: Config, store: str | None):
     data = cfg.data.model_copy(update={"store": store}) if store else cfg.data
     src = open_source(data)
-    _, test = split_by_source(src, cfg.data.holdout, cfg.optim.seed)
+    _, test = split_for(src, cfg.data.model_copy(update={"blends": True}))  # the held-out side: never filtered
     return {"heldout": (src, test)}
 
 
@@ -204,6 +207,8 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
     res["samples"] = len(ds)
     if "model" in acc:
         cl = cluster_ids(src, indices)
+        # per-view errors for run_eval's per_view.csv (effects between runs bootstrap over SVBRDFs: ablation.py)
+        res[PER_VIEW] = {"view": np.asarray(indices, np.int64).tolist(), "svbrdf": cl.tolist(), **acc["model"]}
         res["paired"] = {b: {c: paired(acc["model"][c], acc[b][c], cl, seed) for c in COLUMNS}
                          for b in acc if b != "model"}
     return res
@@ -239,6 +244,16 @@ def markdown(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def write_per_view(path: Path, groups: dict[str, dict]) -> None:
+    """per_view.csv: group, view index, SVBRDF id and the model's RMSE per column, one row per evaluated view."""
+    with open(path, "w") as f:
+        f.write(",".join(("group", "view", "svbrdf", *COLUMNS)) + "\n")
+        for g, pv in groups.items():
+            for k in range(len(pv["view"])):
+                f.write(",".join([g, str(pv["view"][k]), str(pv["svbrdf"][k]),
+                                  *(f"{pv[c][k]:.6g}" for c in COLUMNS)]) + "\n")
+
+
 def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "heldout",
              store: str | None = None, limit: int | None = None, train_store: str | None = None,
              device: str = "cpu") -> dict:
@@ -264,9 +279,9 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     refuse_inside(out_dir, [s for s in (store, cfg.data.store) if s])
     groups = SUITES[suite](cfg, store)
     train_src = open_source(cfg.data)  # baseline means: the training split of the training store
-    train_idx, _ = split_by_source(train_src, cfg.data.holdout, cfg.optim.seed)
+    train_idx, _ = split_for(train_src, cfg.data)
     means = train_means(train_src, train_idx, cfg.data.crop, cfg.optim.seed)
-    out_groups = {}
+    out_groups, per_view = {}, {}
     for name, (src, idx) in groups.items():
         if limit:
             idx = idx[:limit]
@@ -274,11 +289,13 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
                      desc=f"eval {name}" if len(groups) > 1 else "eval")
         r["beats_baselines"] = {c: all(r["model"][c] < r[b][c] for b in ("input_as_diffuse", "dataset_mean"))
                                 for c in COLUMNS}
+        per_view[name] = r.pop(PER_VIEW)
         out_groups[name] = r
     res = {**out_groups[next(iter(out_groups))], "suite": suite} if len(out_groups) == 1 else \
         {"suite": suite, "groups": out_groups}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    write_per_view(out / PER_VIEW_FILE, per_view)
     (out / "eval.json").write_text(json.dumps(res, indent=2) + "\n")
     from . import dvc_metrics
 

@@ -33,12 +33,13 @@ from svcore.progress import progress
 from svcore.seeds import stream_seed
 from svcore.versions import library_versions
 
-from . import checkpoint, dvc_metrics, runinfo
+from . import checkpoint, dvc_metrics, heldout, runinfo
 from .config import Config, OptimConfig
-from .data import PairDataset, make_loader, open_source, split_by_source
+from .data import PairDataset, make_loader, open_source, split_for
 from .device import Placement, placement
 from .distributed import (PeerLost, World, broadcast, check_world, gather, is_collective_failure,
                           last_checkpoint_note, mean_over_ranks, pause_hook, process_group, world_from_env)
+from .heldout import HeldoutProbe, TrainClock
 from .loss import LossConfigs, make_loss, sample_configs
 from .net import SVBRDFNet, count_parameters
 
@@ -85,6 +86,25 @@ def lr_at(o: OptimConfig, step: int) -> float:
     return o.lr * (o.lr_final + (1.0 - o.lr_final) * 0.5 * (1.0 + math.cos(math.pi * t)))
 
 
+def loss_terms(pred: torch.Tensor, maps: torch.Tensor, loss_fn, gen: torch.Generator, o: OptimConfig,
+               configs: LossConfigs | None = None) -> torch.Tensor:
+    """The training loss: ``render_weight`` x the rendering loss + ``map_l1`` x L1 on the packed maps + ``normal_l2``
+    x squared error on the normals' x and y; a term of weight 0 is not computed (the L1 arm renders nothing).
+
+    Args:
+        pred, maps: (B, 10, H, W) float32 predicted and target packed maps.
+    """
+    terms = []
+    if o.render_weight > 0:
+        r = loss_fn(pred, maps, gen, configs)
+        terms.append(r if o.render_weight == 1.0 else o.render_weight * r)
+    if o.map_l1 > 0:
+        terms.append(o.map_l1 * (pred - maps).abs().mean())
+    if o.normal_l2 > 0:
+        terms.append(o.normal_l2 * ((pred[:, 0:2] - maps[:, 0:2]) ** 2).mean())
+    return sum(terms[1:], terms[0])  # config validation guarantees at least one term
+
+
 def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, image: torch.Tensor, maps: torch.Tensor,
                gen: torch.Generator, o: OptimConfig, step: int, *, place: Placement | None = None,
                scaler: torch.amp.GradScaler | None = None, configs: LossConfigs | None = None) -> tuple[float, float]:
@@ -107,11 +127,7 @@ def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, imag
     # Everything after the network is float32 (train/device.py lists the fp32 islands): the loss upcasts anyway,
     # the map terms are taken on the same float32 prediction.
     pred = pred.float()
-    loss = loss_fn(pred, maps, gen, configs)
-    if o.map_l1 > 0:
-        loss = loss + o.map_l1 * (pred - maps).abs().mean()
-    if o.normal_l2 > 0:
-        loss = loss + o.normal_l2 * ((pred[:, 0:2] - maps[:, 0:2]) ** 2).mean()
+    loss = loss_terms(pred, maps, loss_fn, gen, o, configs)
     opt.zero_grad(set_to_none=True)
     scaled = scaler is not None and scaler.is_enabled()
     (scaler.scale(loss) if scaled else loss).backward()
@@ -294,7 +310,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None
     global_batch, rank_batch = world.batches(o.batch_size, cfg.compute.global_batch)  # uneven: refused before writing
     # open the data first: a bad store must fail before the run directory exists
     src = source if source is not None else open_source(cfg.data)
-    train_idx, test_idx = split_by_source(src, cfg.data.holdout, o.seed)
+    train_idx, test_idx = split_for(src, cfg.data)
     runinfo.check_run(cfg, out_dir, len(train_idx), global_batch, rank_batch, place.device, world.local_size)
     out = Path(out_dir)
     if world.main:
@@ -341,10 +357,23 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
     def save(step: int) -> None:
         st = trainer.state(step, losses)  # every rank (gathers the ranks' RNG states)
         st["resume_key"] = key
+        st["heldout"], st["train_clock"] = heldout_rows, clock.totals()  # a resumed run continues from them
         if world.main:
             checkpoint.save(ckpt_path, st)
 
+    probe = HeldoutProbe(src, test_idx, cfg.data.crop, cfg.data.eval_views, o.batch_size) \
+        if o.eval_every and world.main else None
+    heldout_rows = list(state.get("heldout", [])) if state is not None else []
+    clock = TrainClock(*(state.get("train_clock", (0.0, 0.0)) if state is not None else (0.0, 0.0)))
+
+    def probe_at(step: int) -> None:  # the clock is stopped around it: evaluation is not training time
+        wall, cpu = clock.stop()
+        if probe is not None and not any(r["step"] == step for r in heldout_rows):
+            heldout_rows.append({"step": step, "wall_s": wall, "cpu_s": cpu, **probe(trainer.net, place.device)})
+        clock.start()
+
     step = start
+    probe_at(start)
     t0 = time.perf_counter()
     bar = progress(total=o.iterations, desc="fit", unit="it", initial=start, disable=(not world.main) or (
         None if show_progress is None else not show_progress))
@@ -356,6 +385,8 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
             losses.append(loss)
             bar.update(1)
             bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}")
+            if o.eval_every and step % o.eval_every == 0:
+                probe_at(step)
             if step % o.checkpoint_every == 0 and step < stop:
                 save(step)
     except KeyboardInterrupt:
@@ -366,14 +397,19 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
         raise
     bar.close()
     elapsed = time.perf_counter() - t0
+    if step >= o.iterations:
+        probe_at(step)  # the last point of the curve (nothing new when eval_every divides iterations)
+    clock.stop()
     save(step)
     extra = {"it_per_s": (step - start) / elapsed if step > start and elapsed > 0 else None,
              "parameters": count_parameters(trainer.net), "train_samples": int(len(train_idx)),
              "test_samples": int(len(test_idx)), "done": step >= o.iterations, "resumed_from": resumed_from,
              "device": str(place.device), "precision": place.precision, "world_size": world.size,
              "global_batch": trainer.global_batch}
+    extra["train_wall_s"], extra["train_cpu_s"] = clock.wall, clock.cpu
     if not world.main:
         return {"step": step, **extra}
+    heldout.write(out / heldout.FILE, heldout_rows)
     checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": trainer.net.state_dict(), "step": step,
                                        "provenance": provenance(cfg, src)})
     return _write_outputs(out, cfg, losses, extra)

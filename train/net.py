@@ -43,24 +43,32 @@ class GlobalConv(nn.Module):
         cin, cout: channels.
         k, stride, pad: convolution geometry.
         gdim: size of the incoming global vector.
+        track: with the global track; False: conv -> instance norm -> per-channel scale and a plain learned bias
+            (the ablation), ``g`` passes through as None.
     """
 
-    def __init__(self, cin: int, cout: int, k: int, stride: int, pad: int, gdim: int):
+    def __init__(self, cin: int, cout: int, k: int, stride: int, pad: int, gdim: int, track: bool = True):
         super().__init__()
         self.conv = nn.Conv2d(cin, cout, k, stride, pad, bias=False)
         self.scale = nn.Parameter(torch.ones(cout))
-        self.to_bias = nn.Linear(gdim, cout)
-        self.to_global = nn.Linear(gdim + cout, cout)
-        nn.init.normal_(self.to_bias.weight, std=0.01)
-        nn.init.zeros_(self.to_bias.bias)
+        self.track = track
+        if track:
+            self.to_bias = nn.Linear(gdim, cout)
+            self.to_global = nn.Linear(gdim + cout, cout)
+            nn.init.normal_(self.to_bias.weight, std=0.01)
+            nn.init.zeros_(self.to_bias.bias)
+        else:  # instance norm's usual affine shift, in place of the global bias
+            self.shift = nn.Parameter(torch.zeros(cout))
 
-    def forward(self, x: torch.Tensor, g: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """(B, cin, H, W), (B, gdim) -> (B, cout, H', W'), (B, cout)."""
+    def forward(self, x: torch.Tensor, g: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """(B, cin, H, W), (B, gdim) or None -> (B, cout, H', W'), (B, cout) or None (without the track)."""
         # float32 statistics under autocast (train/device.py): a half-precision variance loses or overflows
         y = self.conv(x).float()
         mean = y.mean((2, 3))
         var = y.var((2, 3), unbiased=False)
         y = (y - mean[..., None, None]) * torch.rsqrt(var[..., None, None] + IN_EPS)
+        if not self.track:
+            return y * self.scale[:, None, None] + self.shift[:, None, None], None
         y = y * self.scale[:, None, None] + self.to_bias(g)[..., None, None]
         g_next = F.selu(self.to_global(torch.cat([g, mean], 1)))
         return y, g_next
@@ -77,11 +85,12 @@ class SVBRDFNet(nn.Module):
         self.cfg = cfg
         w = cfg.widths()
         self.levels = cfg.levels
-        self.g0 = nn.Linear(3, w[0])
+        track = cfg.global_track
+        self.g0 = nn.Linear(3, w[0]) if track else None
         self.enc = nn.ModuleList()
         cin, gdim = 3, w[0]
         for c in w:
-            self.enc.append(GlobalConv(cin, c, 4, 2, 1, gdim))
+            self.enc.append(GlobalConv(cin, c, 4, 2, 1, gdim, track))
             cin, gdim = c, c
         self.dec = nn.ModuleList()
         self.drop = nn.ModuleList()
@@ -89,16 +98,17 @@ class SVBRDFNet(nn.Module):
             convs = nn.ModuleList()
             c_in = cin + w[i]
             for _ in range(cfg.decoder_convs):
-                convs.append(GlobalConv(c_in, w[i], 3, 1, 1, gdim))
+                convs.append(GlobalConv(c_in, w[i], 3, 1, 1, gdim, track))
                 c_in, gdim = w[i], w[i]
             self.dec.append(convs)
             self.drop.append(nn.Dropout(cfg.dropout) if n < cfg.dropout_levels and cfg.dropout > 0 else nn.Identity())
             cin = w[i]
         # Output layer at full resolution: skip from the input image; no norm, global bias only.
         self.out_conv = nn.Conv2d(cin + 3, 9, 3, 1, 1)
-        self.out_bias = nn.Linear(gdim, 9)
-        nn.init.normal_(self.out_bias.weight, std=0.01)
-        nn.init.zeros_(self.out_bias.bias)
+        self.out_bias = nn.Linear(gdim, 9) if track else None
+        if track:
+            nn.init.normal_(self.out_bias.weight, std=0.01)
+            nn.init.zeros_(self.out_bias.bias)
         # Start from a plausible material, not sigmoid(0) = 0.5 everywhere: an F0 of 0.5 (metal-like) under the
         # rendering loss's lights gives highlights ~10x too bright, and the fastest way down the loss is to shrink
         # the lobe to a mirror (roughness -> floor) rather than to lower F0; the net then stayed there (dvc store,
@@ -115,7 +125,7 @@ class SVBRDFNet(nn.Module):
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         """Args: image (B, 3, H, W) linear in [0, 1]. Returns (B, 10, H, W) packed maps."""
         x0 = log_map(image)
-        g = F.selu(self.g0(x0.mean((2, 3))))
+        g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None
         skips = []
         x = x0
         for layer in self.enc:
@@ -129,7 +139,9 @@ class SVBRDFNet(nn.Module):
                 x = F.leaky_relu(x, 0.2)
             x = drop(x)
         x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), x0], 1)
-        o = self.out_conv(x) + self.out_bias(g)[..., None, None]
+        o = self.out_conv(x)
+        if self.out_bias is not None:
+            o = o + self.out_bias(g)[..., None, None]
         return outputs_to_maps(o)
 
 

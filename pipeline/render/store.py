@@ -192,6 +192,12 @@ class RendersReader:
         per = self.presets_of_svbrdf()
         return [p for p in per for _ in range(self.views)]
 
+    def input_kinds_of_views(self) -> list[str]:
+        """Kind of the input store (variants, blends, stress...) each view's SVBRDF was rendered from, one read."""
+        kinds = [d["kind"] for d in self.attrs["inputs"]]
+        per_svbrdf = [kinds[k] for k in self.group["input"][:]]
+        return [k for k in per_svbrdf for _ in range(self.views)]
+
     def stored_split(self) -> dict | None:
         """The held-out split recorded at render time (``svcore.split.split_record``), None in older stores."""
         return self.attrs.get("split")

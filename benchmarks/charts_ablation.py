@@ -1,0 +1,72 @@
+"""Chart 7: what the paper's choices buy here -- held-out error against training CPU time, per claim, the paper's
+choice and its alternative side by side with their seed spread; rebuilt from ablation.json alone (ablation.py).
+
+One panel per claim (global track, rendering loss vs L1 on the maps, the normal term, blends): each arm's held-out
+re-render RMSE along its fit (runs/train/heldout.csv of every experiment: the same held-out views for every cell)
+against the training CPU seconds, the mean over seeds as a line and the seeds' range as a band. The effects table
+(each claim's mean difference and bootstrap interval per column and suite) is written beside the PNG as markdown.
+
+Usage: python3 benchmarks/charts_ablation.py [ablation.json] [out.png]
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ablation_effects import markdown
+from harness import IMG, RESULTS, pyplot, save_figure
+
+DEFAULT_JSON = RESULTS / "ablation.json"
+DEFAULT_PNG = IMG / "chart_ablation.png"
+COLOURS = ("tab:blue", "tab:orange")
+
+
+def curve(runs: dict, column: str = "rerender") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """(cpu_s, mean, low, high) over the seeds of one cell, on the steps every seed evaluated (CPU seconds: their
+    mean at that step)."""
+    curves = [r["heldout_curve"] for r in runs.values() if r.get("heldout_curve")]
+    if not curves:
+        return None
+    steps = sorted(set.intersection(*({row["step"] for row in c} for c in curves)))
+    at = [{row["step"]: row for row in c} for c in curves]
+    cpu = np.array([[a[s]["cpu_s"] for s in steps] for a in at]).mean(0)
+    err = np.array([[a[s][column] for s in steps] for a in at])
+    return cpu, err.mean(0), err.min(0), err.max(0)
+
+
+def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PNG) -> Path:
+    """Draw chart 7 and write the effects table (``<png stem>.md``) beside it; returns the PNG path."""
+    plt = pyplot()
+    d = json.loads(Path(json_path).read_text())
+    claims = [(name, e) for name, e in d["effects"].items()]
+    fig, axes = plt.subplots(1, max(1, len(claims)), figsize=(4.2 * max(1, len(claims)), 3.8), squeeze=False)
+    for ax, (name, e) in zip(axes[0], claims):
+        for colour, (role, cells) in zip(COLOURS, (("choice", [p[0] for p in e["pairs"]]),
+                                                   ("alternative", [p[1] for p in e["pairs"]]))):
+            for k, cell in enumerate(dict.fromkeys(cells)):
+                c = curve(d["cells"][cell]["runs"])
+                if c is None:
+                    continue
+                cpu, mean, lo, hi = c
+                label = f"{e[role]} ({cell})" if k == 0 else None
+                ax.plot(cpu, mean, color=colour, marker="o", ms=3, label=label, alpha=1.0 if k == 0 else 0.5)
+                ax.fill_between(cpu, lo, hi, color=colour, alpha=0.2, lw=0)
+        ax.set_title(f"{name}", fontsize=10)
+        ax.set_xlabel("training CPU seconds")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0][0].set_ylabel("held-out re-render RMSE")
+    n_seeds = len(d.get("seeds", []))
+    fig.suptitle(f"What the paper's choices buy here ({d['design']} design, {n_seeds} seed(s) per cell; "
+                 "line: seed mean, band: seed range)", fontsize=10)
+    fig.tight_layout()
+    out = save_figure(fig, Path(png_path), dpi=110)
+    Path(png_path).with_suffix(".md").write_text(markdown(d["effects"], tuple(d["columns"])))
+    return out
+
+
+if __name__ == "__main__":
+    plot(*sys.argv[1:3])
