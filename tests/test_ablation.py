@@ -273,10 +273,11 @@ def test_designs_and_the_pairs_each_claim_compares(monkeypatch):
     from ablation import CLAIMS, cells, overrides, pairs_of
 
     ofat, full = cells("ofat"), cells("full")
-    assert len(ofat) == 5 and len(full) == 12
+    assert len(ofat) == 6 and len(full) == 24
     counts = {c: (len(pairs_of(ofat, *CLAIMS[c])), len(pairs_of(full, *CLAIMS[c]))) for c in CLAIMS}
-    assert counts == {"global track": (1, 6), "rendering loss vs L1 on maps": (1, 4), "normal term": (1, 4),
-                      "blends": (1, 6)}
+    assert counts == {"global track": (1, 12), "rendering loss vs L1 on maps": (1, 8), "normal term": (1, 8),
+                      "blends": (1, 12), "width 8 vs 16 (#10)": (1, 12)}
+    assert overrides(ofat["width-16"])["model.base_width"] == 16
     l1 = overrides(ofat["loss-l1"])
     assert l1["optim.render_weight"] == 0 and l1["optim.map_l1"] > 0 and l1["optim.normal_l2"] == 0
     assert overrides(ofat["global-off"])["model.global_track"] is False
