@@ -12,7 +12,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "benchmarks"
-SCRIPTS = sorted(p for p in BENCH.glob("*.py") if p.name != "harness.py")
+# the runnable benchmarks (a __main__ block); modules they import (harness, charts_*, ablation_effects) are not scripts
+SCRIPTS = sorted(p for p in BENCH.glob("*.py") if p.name != "harness.py" and "__main__" in p.read_text())
 MACHINE_KEYS = {"platform", "machine", "cpu", "cpus", "python", "versions", "threads", "loadavg_1min", "code"}
 
 

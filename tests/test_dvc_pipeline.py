@@ -26,7 +26,7 @@ TINY = {
     "train": {"config_preset": "compact", "model": {"base_width": 4, "max_width": 8, "levels": 3},
               "data": {"crop": 32, "workers": 0},
               "optim": {"iterations": 4, "batch_size": 2, "checkpoint_every": 2, "compile_loss": False}},
-    "eval": {"limit": 8},
+    "eval": {"limit": 8, "extra_stores": []},
     "stress": {"per_category": 1, "size": 64, "seed": 0},
     "import": {"sources": []},
 }
