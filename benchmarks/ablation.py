@@ -116,7 +116,9 @@ def calibrate(project: Path, grid: dict, store: str, steps: tuple[int, int], ext
     out = {}
     for key, arms in {cost_key(a): a for a in grid.values()}.items():
         runs = []
-        for n in steps:
+        # a first, discarded run warms torch.compile's disk cache: otherwise the shorter run pays the cold compile
+        # and the difference between the two runs is noise, even negative (seen on a quiet machine)
+        for n in (steps[0], *steps):
             with tempfile.TemporaryDirectory(prefix="ablation-calib-") as tmp:
                 cmd = ["svtrain", "fit", "--params", "params.yaml", "--store", store, "--out", tmp, "--no-resume",
                        "--iterations", str(n), "--set", "optim.eval_every=0", *extra,
@@ -126,6 +128,7 @@ def calibrate(project: Path, grid: dict, store: str, steps: tuple[int, int], ext
                 m = json.loads((Path(tmp) / "metrics.json").read_text())
             runs.append({"steps": n, "train_cpu_s": m["train_cpu_s"], "train_wall_s": m["train_wall_s"],
                          "command": shlex.join(cmd)})
+        warmup, runs = runs[0], runs[1:]
         d = steps[1] - steps[0]
         per_step = (runs[1]["train_cpu_s"] - runs[0]["train_cpu_s"]) / d if d > 0 else 0.0
         # a noisy difference (a loaded machine, too few steps) must not turn into millions of steps
@@ -139,6 +142,7 @@ def calibrate(project: Path, grid: dict, store: str, steps: tuple[int, int], ext
         # what the training clock counts besides the steps (torch.compile of the loss renderer in the first step, a
         # few seconds once inductor's disk cache holds it): the curves' CPU axis includes it, the step budget not
         out[key]["overhead_cpu_s"] = runs[0]["train_cpu_s"] - steps[0] * out[key]["cpu_s_per_step"]
+        out[key]["warmup_run"] = warmup
         print(f"calibrated {key}: {out[key]['cpu_s_per_step']:.3f} CPU-s/step", file=sys.stderr)
     return out
 
