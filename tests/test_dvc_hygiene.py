@@ -134,6 +134,25 @@ def test_changing_the_worker_count_reruns_nothing(repro):
         assert "Running stage" not in again.stdout, again.stdout
 
 
+def test_bytecode_in_the_code_deps_reruns_nothing(repro):
+    """Python writes __pycache__/*.pyc into the packages a stage lists as deps (unless PYTHONDONTWRITEBYTECODE is
+    set, as on some machines): they must not count, or dvc.lock depends on the machine and the Python version that
+    ran it, and a checkout whose lock was written with bytecode reruns every stage (.dvcignore)."""
+    made = []
+    try:
+        for pkg in ("materials", "svcore", "pipeline", "train"):
+            cache = repro / pkg / "__pycache__"
+            cache.mkdir(exist_ok=True)
+            pyc = cache / "maps.cpython-311.pyc"
+            pyc.write_bytes(b"not from this repository")
+            made.append(pyc)
+        status = sh(["dvc", "status"], repro, env=FAST).stdout
+        assert "up to date" in status, f"bytecode files changed the stages' deps:\n{status}"
+    finally:
+        for pyc in made:
+            pyc.unlink(missing_ok=True)
+
+
 # -- 3. a small flat metrics table ----------------------------------------------------------------------------
 def _leaves(d, prefix=""):
     for k, v in d.items():
