@@ -52,7 +52,9 @@ def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
     from pipeline.config import RenderConfig
     from pipeline.render.stage import chunk_task, render_writer
 
-    cfg = build(RenderConfig)
+    # one SVBRDF per task, as _render's --chunk 1: with the default 64-SVBRDF task the warm-up task would hold every
+    # SVBRDF of this benchmark and leave nothing to time
+    cfg = build(RenderConfig, chunk=1)
     writer, n = render_writer(inp, out, cfg)
     with writer as w, dask_client(workers, address) as client:
         task = chunk_task(w, inp, cfg, n)
@@ -60,6 +62,8 @@ def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
         warm = todo[:max(1, len(client.scheduler_info()["workers"]))]
         client.gather(client.map(task, warm, [1] * len(warm), pure=False))
         rest = todo[len(warm):]
+        if not rest:
+            raise SystemExit(f"{len(todo)} tasks leave none after the warm-up of {len(warm)}: render more SVBRDFs")
         threads = [max(1, (os.cpu_count() or 1) // max(1, workers))] * len(rest)
         dt = timed(lambda: client.gather(client.map(task, rest, threads, pure=False))).wall_s
     return len(rest) * cfg.views / dt
@@ -135,18 +139,9 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     if args.s3_only:
         return _main_s3(args)
-    from pipeline.config import SampleConfig
-    from svcore.config import build
-    from pipeline.sample import run_sample
-
-    import materials
-
     tmp = Path(tempfile.mkdtemp(prefix="svgen-scaleout-"))
     try:
-        inp = tmp / "v.zarr"
-        presets = tuple(p.name for p in materials.presets()[:: max(1, len(materials.presets()) // N_PRESET)][:N_PRESET])
-        run_sample(inp, build(SampleConfig, presets=presets, per_preset=2), workers=0)
-        n_views = len(presets) * 2 * 10
+        inp, n_views = _inputs(tmp, 2 * N_PRESET)
         rows = []
         for w in (1, 2):
             wall = _render(inp, tmp / f"local{w}.zarr", ["--workers", str(w)])
@@ -177,7 +172,7 @@ def main(argv=None) -> None:
                 p.wait(timeout=30)
         ref = tree_digest(tmp / "local1.zarr")
         identical = all(tree_digest(tmp / n) == ref for n in ("local2.zarr", "dist.zarr"))
-        res = {"benchmark": "render_scaleout", "svbrdfs": len(presets) * 2, "views": n_views, "res": 256,
+        res = {"benchmark": "render_scaleout", "svbrdfs": n_views // 10, "views": n_views, "res": 256,
                "rows": rows, "stores_identical": identical, **s3_rows(inp, tmp, n_views)}
         write_results(args.out or str(RESULTS / "scaleout.json"), res, args.note)
         for r in rows:
