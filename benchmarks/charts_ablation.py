@@ -42,8 +42,14 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
     plt = pyplot()
     d = json.loads(Path(json_path).read_text())
     claims = [(name, e) for name, e in d["effects"].items()]
-    fig, axes = plt.subplots(1, max(1, len(claims)), figsize=(4.2 * max(1, len(claims)), 3.8), squeeze=False)
-    for ax, (name, e) in zip(axes[0], claims):
+    n = max(1, len(claims))
+    ncols = min(3, n)  # wrapped: five panels in one row are too small to read at the README's width
+    nrows = -(-n // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.6 * ncols, 3.9 * nrows), squeeze=False)
+    flat = axes.ravel()
+    for ax in flat[len(claims):]:
+        ax.set_visible(False)
+    for ax, (name, e) in zip(flat, claims):
         for colour, (role, cells) in zip(COLOURS, (("choice", [p[0] for p in e["pairs"]]),
                                                    ("alternative", [p[1] for p in e["pairs"]]))):
             for k, cell in enumerate(dict.fromkeys(cells)):
@@ -54,14 +60,19 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
                 label = f"{e[role]} ({cell})" if k == 0 else None
                 ax.plot(cpu, mean, color=colour, marker="o", ms=3, label=label, alpha=1.0 if k == 0 else 0.5)
                 ax.fill_between(cpu, lo, hi, color=colour, alpha=0.2, lw=0)
-        ax.set_title(f"{name}", fontsize=10)
+        # the claim's held-out re-render effect in the title: what the panel shows, as a number with its interval
+        eff = ((e.get("suites") or {}).get("heldout") or {}).get("rerender")
+        sub = (f"\nheld-out re-render: {eff['mean']:+.4f} [{eff['ci95'][0]:+.4f}, {eff['ci95'][1]:+.4f}]"
+               if eff else "")
+        ax.set_title(f"{name}{sub}", fontsize=10)
         ax.set_xlabel("training CPU seconds")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    axes[0][0].set_ylabel("held-out re-render RMSE")
+    for row in axes:
+        row[0].set_ylabel("held-out re-render RMSE")
     n_seeds = len(d.get("seeds", []))
     fig.suptitle(f"What the paper's choices buy here ({d['design']} design, {n_seeds} seed(s) per cell; "
-                 "line: seed mean, band: seed range)", fontsize=10)
+                 "line: seed mean, band: seed range; title: alternative minus choice, 95 % interval)", fontsize=10)
     fig.tight_layout()
     out = save_figure(fig, Path(png_path), dpi=110)
     Path(png_path).with_suffix(".md").write_text(markdown(d["effects"], tuple(d["columns"])))
