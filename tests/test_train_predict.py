@@ -49,6 +49,21 @@ def test_sizes_from_one_512_photo(run_dir, tmp_path, rng, size, caplog):
     assert ("quality falls off" in caplog.text) == (size > 256)
 
 
+def test_a_photo_smaller_than_the_size_is_upscaled_with_a_warning(run_dir, tmp_path, rng, caplog):
+    write_exr(tmp_path / "small.exr", photo(rng, 64, 96))  # centre square 64² -> 256²: 4x
+    out = tmp_path / "maps"
+    code, _, err = run("predict", tmp_path / "small.exr", "--checkpoint", run_dir, "--out", out)
+    assert code == 0, err
+    assert json.loads((out / "prediction.json").read_text())["upscale"] == 4.0
+    assert "small.exr: its centre square (64²) is upscaled 4.0x to 256²" in caplog.text
+    caplog.clear()
+    write_exr(tmp_path / "large.exr", photo(rng, 300, 400))  # shrunk: no warning
+    code, _, err = run("predict", tmp_path / "large.exr", "--checkpoint", run_dir, "--out", tmp_path / "m2")
+    assert code == 0, err
+    assert json.loads((tmp_path / "m2" / "prediction.json").read_text())["upscale"] < 1
+    assert "upscaled" not in caplog.text
+
+
 def test_default_size_is_256(run_dir, tmp_path, rng):
     write_exr(tmp_path / "p.exr", photo(rng, 300, 400))
     code, _, err = run("predict", tmp_path / "p.exr", "--checkpoint", run_dir)

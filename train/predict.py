@@ -223,6 +223,11 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
                 failed.append((photo, str(e).splitlines()[0]))
                 bar.update(1)
                 continue
+            side = min(img.shape[:2])
+            if side < size:  # the maps can hold no detail the photo lacks: say so rather than upscale in silence
+                log.warning("%s: its centre square (%d²) is upscaled %.1fx to %d²; the maps hold no finer detail "
+                            "than the photo (use a larger photo or a smaller --size)", photo.name, side, size / side,
+                            size)
             batch.append((photo, d, img.shape[:2], to_network_input(img, size)))
         if not batch:
             continue
@@ -237,6 +242,8 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
             write_png(d / "rerender.png", srgb_encode(_hwc(rer[k:k + 1])))
             (d / "prediction.json").write_text(json.dumps({
                 "photo": str(Path(photo).resolve()), "photo_size": list(hw), "crop": "centre square, resized",
+                # > 1: the centre square was enlarged to --size (a warning said so)
+                "upscale": round(size / min(hw), 4),
                 "input_space": input_space_of(photo, input_space), "input_space_option": input_space, **meta},
                 indent=2) + "\n")
             written.append(d)
