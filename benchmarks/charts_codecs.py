@@ -3,7 +3,7 @@
 Left: encode + write CPU, right: read + decode CPU, both per 256^2 view of the renders store, against its bytes
 per view; one point per codec pipeline and layout (marker: today's unsharded chunks, a shard per today's task,
 a shard per larger task), colour by family; the issue's aim box (<= 10 ms end to end per view, render included,
-and <= 150 KB per view) drawn; the chosen default and today's setting circled.
+and <= 150 KB per view) drawn; the applied default, the knee and the layout before #12 circled.
 
 Usage: python3 benchmarks/charts_codecs.py [codecs.json] [out.png]
 """
@@ -57,9 +57,10 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
                 for r in pts:
                     ax.annotate(r["codec"], (r[key] * 1e3, r["bytes_per_view"] / 1e3), fontsize=6,
                                 xytext=(3, 2), textcoords="offset points")
-        marks = [(d["today"], "black", "today"), (chosen, "red", "chosen")]
+        # labels say what the stores do: #12 applied the rule's pick among zarr v3 spec codecs (docs/CODECS.md)
+        marks = [(d["today"], "black", "before #12"), (chosen, "red", "knee (outside the zarr v3 spec)")]
         if chosen.get("in_spec") and chosen["in_spec"]["codec"] != chosen["codec"]:
-            marks.append((chosen["in_spec"], "purple", "chosen among zarr-spec codecs"))
+            marks.append((chosen["in_spec"], "purple", "applied: best among zarr v3 spec codecs"))
         for m, colour, label in marks:
             r = next((x for x in rows if x["codec"] == m["codec"] and x["layout"] == m["layout"]), None)
             if r is None:
@@ -80,7 +81,9 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
         axes[0].scatter([], [], c=c, label=f"codec family: {fam}")
     handles, labels = axes[0].get_legend_handles_labels()
     axes[1].legend(handles, labels, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    fig.suptitle(f"Codecs and sharding of the renders store (chosen: {chosen['codec']}, {chosen['layout']})",
+    applied = chosen.get("in_spec") or chosen
+    fig.suptitle(f"Codecs and sharding of the renders store (applied: {applied['codec']}, {applied['layout']}; "
+                 f"knee: {chosen['codec']})",
                  fontsize=10)
     return save_figure(fig, png_path, dpi=110)
 

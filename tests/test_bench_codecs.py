@@ -131,3 +131,24 @@ def test_chart_draws_from_the_results(run, tmp_path, monkeypatch):
     res, out = run
     png = charts_codecs.plot(out / "codecs.json", tmp_path / "chart_codecs.png")
     assert png.stat().st_size > 10_000
+
+
+def test_the_end_to_end_estimate_swaps_the_stores_own_write_for_the_chosen_one():
+    """render.json is measured with the stores' codec (zstd 3 in 64-SVBRDF shards since #12): the estimate takes
+    that write out and puts the chosen codec's in, never the pre-#12 zstd 5 write (which render.json no longer
+    pays). Rows built by hand: the numbers are chosen so that each wrong baseline gives another estimate."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import bench_codecs
+
+    def row(codec, layout, task, write, kb=190.0, read=0.001):
+        return {"codec": codec, "layout": layout, "task_samples": task, "inner_chunk_samples": 1,
+                "bytes_per_view": kb * 1000, "write_cpu_s_per_view": write, "read_cpu_s_per_view": read,
+                "write_read_cpu_s_per_view": write + read,
+                "objects_per_10k_views": 172.0 if layout == "shard=64" else 5312.0}
+
+    rows = [row("zstd5", "chunked", 2, 0.009), row("zstd3", "shard=2", 2, 0.005), row("zstd3", "shard=64", 64, 0.004),
+            row("delta-zstd1", "shard=64", 64, 0.001)]
+    chosen = bench_codecs.choose(rows, 0.015)
+    assert chosen["codec"] == "delta-zstd1"
+    assert chosen["end_to_end_cpu_s_per_view_estimate"] == pytest.approx(0.015 - 0.004 + 0.001)
+    assert "zstd3 shard=64" in chosen["end_to_end_note"]
