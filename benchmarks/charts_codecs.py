@@ -57,10 +57,14 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
                 for r in pts:
                     ax.annotate(r["codec"], (r[key] * 1e3, r["bytes_per_view"] / 1e3), fontsize=6,
                                 xytext=(3, 2), textcoords="offset points")
-        # labels say what the stores do: #12 applied the rule's pick among zarr v3 spec codecs (docs/CODECS.md)
-        marks = [(d["today"], "black", "before #12"), (chosen, "red", "knee (outside the zarr v3 spec)")]
+        # labels say what the stores do (chosen["stores_codec"]: pipeline/store.py's codec when measured)
+        ours = chosen.get("stores_codec")
+        knee = "knee, applied" if chosen["codec"] == ours else "knee (not applied)"
+        marks = [(d["today"], "black", "before #12"), (chosen, "red", knee)]
         if chosen.get("in_spec") and chosen["in_spec"]["codec"] != chosen["codec"]:
-            marks.append((chosen["in_spec"], "purple", "applied: best among zarr v3 spec codecs"))
+            spec = chosen["in_spec"]["codec"] == ours
+            marks.append((chosen["in_spec"], "purple",
+                          "applied: best among zarr v3 spec codecs" if spec else "best among zarr v3 spec codecs"))
         for m, colour, label in marks:
             r = next((x for x in rows if x["codec"] == m["codec"] and x["layout"] == m["layout"]), None)
             if r is None:
@@ -81,9 +85,8 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
         axes[0].scatter([], [], c=c, label=f"codec family: {fam}")
     handles, labels = axes[0].get_legend_handles_labels()
     axes[1].legend(handles, labels, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    applied = chosen.get("in_spec") or chosen
-    fig.suptitle(f"Codecs and sharding of the renders store (applied: {applied['codec']}, {applied['layout']}; "
-                 f"knee: {chosen['codec']})",
+    fig.suptitle(f"Codecs and sharding of the renders store (stores write: {chosen.get('stores_codec', '?')}; "
+                 f"knee: {chosen['codec']}, {chosen['layout']})",
                  fontsize=10)
     return save_figure(fig, png_path, dpi=110)
 

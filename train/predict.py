@@ -228,14 +228,14 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
                 log.warning("%s: its centre square (%d²) is upscaled %.1fx to %d²; the maps hold no finer detail "
                             "than the photo (use a larger photo or a smaller --size)", photo.name, side, size / side,
                             size)
-            batch.append((photo, d, img.shape[:2], to_network_input(img, size)))
+            batch.append((photo, d, img.shape[:2], side, to_network_input(img, size)))
         if not batch:
             continue
-        x = torch.cat([b[3] for b in batch]).to(dev)
+        x = torch.cat([b[4] for b in batch]).to(dev)
         maps = model(x).float()
         rer = flash_render(maps, torch.tensor(MOVED_LIGHT))
         maps, x, rer = maps.cpu(), x.cpu(), rer.cpu()
-        for k, (photo, d, hw, _) in enumerate(batch):
+        for k, (photo, d, hw, side, _) in enumerate(batch):
             d.mkdir(parents=True, exist_ok=True)
             write_maps(maps[k:k + 1], d)
             write_png(d / "input.png", srgb_encode(_hwc(x[k:k + 1])))
@@ -243,7 +243,7 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
             (d / "prediction.json").write_text(json.dumps({
                 "photo": str(Path(photo).resolve()), "photo_size": list(hw), "crop": "centre square, resized",
                 # > 1: the centre square was enlarged to --size (a warning said so)
-                "upscale": round(size / min(hw), 4),
+                "upscale": round(size / side, 4),
                 "input_space": input_space_of(photo, input_space), "input_space_option": input_space, **meta},
                 indent=2) + "\n")
             written.append(d)
