@@ -3,7 +3,7 @@
 Real rendered data, read-only: the first ``--samples`` SVBRDFs of a renders store (every array a renders store
 holds: the uint8 sRGB images (V, R, R, 3), the view parameters, the uint16 base maps and the provenance columns)
 and, with ``--variants``, of a variants store (its maps and columns, per variant). Each array is rewritten
-exactly as :func:`pipeline.store.write_chunk` writes it -- one aligned region per dask task into a
+exactly as :func:`storage.store.write_chunk` writes it -- one aligned region per dask task into a
 ``zarr.Array`` created first -- with every candidate codec pipeline (:data:`CODECS`, each ending in CRC32C like
 the stores today) in every layout (:func:`layouts`):
 
@@ -44,7 +44,7 @@ import zarr
 from zarr.codecs import BloscCodec, Crc32cCodec, TransposeCodec, ZstdCodec
 from zarr.codecs.numcodecs import Delta
 
-from pipeline.store import open_store
+from storage.store import open_store
 from svcore.errors import StoreError
 
 from harness import RESULTS, ROOT, command, parser, write_csv, write_results
@@ -165,7 +165,7 @@ def write_store(root: Path, data: dict[str, np.ndarray], codec: Codec, layout: L
             chunks=(layout.inner, *rest), shards=(layout.task, *rest) if layout.sharded else None)
     n = len(next(iter(data.values())))
     c0 = time.process_time()
-    for start in range(0, n, layout.task):  # one task: every array's region, as pipeline.store.write_chunk does
+    for start in range(0, n, layout.task):  # one task: every array's region, as storage.store.write_chunk does
         for name, a in data.items():
             arrays[name][start:start + layout.task] = a[start:start + layout.task]
     return time.process_time() - c0
@@ -245,9 +245,9 @@ def load(path: Path, kind: str, samples: int) -> tuple[dict[str, np.ndarray], li
 
 
 def stores_codec() -> str:
-    """The candidate the stores write with (read from ``pipeline.store._compressors``, its one home): render.json's
+    """The candidate the stores write with (read from ``storage.local._compressors``, its one home): render.json's
     cpu_s_per_view is measured with it, so the end-to-end estimate swaps its write for the chosen one's."""
-    from pipeline.store import _compressors
+    from storage.local import _compressors
 
     level = next(c.level for c in _compressors() if isinstance(c, ZstdCodec))
     return f"zstd{level}"

@@ -49,7 +49,7 @@ def dir_bytes(p: Path) -> int:
 
 
 def zstd_bytes(a: np.ndarray) -> int:
-    """Compressed size with the stores' codec (zstd level 3: pipeline.store._compressors)."""
+    """Compressed size with the stores' codec (zstd level 3: storage.store._compressors)."""
     from numcodecs import Zstd
 
     return len(Zstd(level=3).encode(np.ascontiguousarray(a)))
@@ -100,7 +100,7 @@ def main(argv=None) -> int:
         # 2-3. dask, 2 local workers, CPU time measured inside the workers around each task
         from distributed import as_completed
 
-        from pipeline.parallel import dask_client, threads_per_worker
+        from pipeline.exec.parallel import dask_client, threads_per_worker
         from pipeline.render.stage import chunk_task, render_writer
 
         out2 = tmp / "renders_dask.zarr"

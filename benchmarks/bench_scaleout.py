@@ -48,7 +48,7 @@ def _render(inp: Path, out: Path, extra: list[str]) -> float:
 def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
     """views/s with the cluster already running: chunk tasks only (first task per worker excluded)."""
     from svcore.config import build
-    from pipeline.parallel import dask_client, run_chunks
+    from pipeline.exec.parallel import dask_client, run_chunks
     from pipeline.config import RenderConfig
     from pipeline.render.stage import chunk_task, render_writer
 
@@ -113,7 +113,7 @@ def s3_rows(inp: Path, tmp: Path, n_views: int, steps: int = 20, batch: int = 8)
                 wall = _render(inp, out, ["--workers", str(w)])
                 rows.append({"config": f"render to {where}, {w} worker{'s' if w > 1 else ''}", "workers": w,
                              "wall_s": wall, "views_per_s_total": n_views / wall})
-        from pipeline.store import open_store
+        from storage.store import open_store
 
         a, b = open_store(tmp / "s3cmp_local1.zarr", "renders"), open_store("s3://bench/r2.zarr", "renders")
         same = all(np.array_equal(a[k][:], b[k][:]) for k in a)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline import store as S
+from storage import store as S
 
 from harness import RESULTS, parser, write_results
 

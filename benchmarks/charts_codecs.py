@@ -57,7 +57,7 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
                 for r in pts:
                     ax.annotate(r["codec"], (r[key] * 1e3, r["bytes_per_view"] / 1e3), fontsize=6,
                                 xytext=(3, 2), textcoords="offset points")
-        # labels say what the stores do (chosen["stores_codec"]: pipeline/store.py's codec when measured)
+        # labels say what the stores do (chosen["stores_codec"]: storage/local.py's codec when measured)
         ours = chosen.get("stores_codec")
         knee = "knee, applied" if chosen["codec"] == ours else "knee (not applied)"
         marks = [(d["today"], "black", "before #12"), (chosen, "red", knee)]

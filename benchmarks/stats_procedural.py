@@ -18,7 +18,7 @@ import numpy as np
 from pipeline.config import SampleConfig
 from pipeline.sample import run_sample
 from pipeline.stats import store_stats
-from pipeline.svbrdf_store import SVBRDFStore
+from storage.svbrdf_store import SVBRDFStore
 from svcore.config import build
 
 from harness import RESULTS, parser, write_results

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class Param:
@@ -58,3 +60,26 @@ class ParamTable:
 
     def defaults(self) -> dict[str, float]:
         return {p.name: float(p.default) for p in self.params}
+
+
+def perturb(preset, k: int, sigma: float, rng: np.random.Generator) -> dict[str, float]:
+    """Parameters of variant ``k`` of ``preset`` (anything with an ``exposed`` :class:`ParamTable`: a preset, an
+    imported material): defaults for k == 0, else truncated-normal draws around them.
+
+    Returns:
+        exposed parameter name -> value (inside the preset's range).
+    """
+    from scipy.stats import truncnorm  # scipy on first use: importing materials stays light
+
+    out = {}
+    for p in preset.exposed:
+        if k == 0 or p.high == p.low:
+            v = p.default
+        else:
+            scale = sigma * (p.high - p.low)
+            a, b = (p.low - p.default) / scale, (p.high - p.default) / scale
+            v = float(truncnorm.rvs(a, b, loc=p.default, scale=scale, random_state=rng))
+        if p.kind == "int":
+            v = float(np.clip(np.round(v), p.low, p.high))
+        out[p.name] = float(np.clip(v, p.low, p.high))
+    return out

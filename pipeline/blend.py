@@ -21,10 +21,11 @@ from materials.noise import fbm
 from svcore.errors import ConfigError
 from svcore.seeds import derive_seed
 
+from storage.store import recorded_path, write_chunk
+from storage.svbrdf_store import SVBRDFStore, array_specs, encode_maps
+
 from .config import BlendConfig
-from .runner import Stage
-from .store import recorded_path, write_chunk
-from .svbrdf_store import SVBRDFStore, array_specs, encode_maps
+from .exec.runner import Stage
 
 
 MIN_NZ = 1e-3  # slopes of normals flatter than this are clamped: keeps n/n_z finite

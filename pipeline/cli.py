@@ -12,15 +12,15 @@ from svcore.log import configure
 
 #: command name -> "module:attribute" (a registry instead of an if-chain; add a line to add a command).
 COMMANDS: dict[str, str] = {
-    "materials": "pipeline.cmd_materials:materials",
-    "sample": "pipeline.cmd_sample:sample",
-    "blend": "pipeline.cmd_blend:blend",
-    "render": "pipeline.cmd_render:render",
-    "export": "pipeline.cmd_export:export",
-    "stress": "pipeline.cmd_stress:stress",
-    "import": "pipeline.cmd_import:import_",
-    "stats": "pipeline.cmd_stats:stats",
-    "card": "pipeline.cmd_card:card",
+    "materials": "pipeline.commands.materials:materials",
+    "sample": "pipeline.commands.sample:sample",
+    "blend": "pipeline.commands.blend:blend",
+    "render": "pipeline.commands.render:render",
+    "export": "pipeline.commands.export:export",
+    "stress": "pipeline.commands.stress:stress",
+    "import": "pipeline.commands.import_:import_",
+    "stats": "pipeline.commands.stats:stats",
+    "card": "pipeline.commands.card:card",
 }
 
 

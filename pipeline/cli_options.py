@@ -5,6 +5,8 @@ import os
 
 import click
 
+from storage.options import storage_option
+
 #: the environment variable read when ``--workers`` is not given. A machine setting, not a parameter: the bytes
 #: of a store do not depend on it (tests/test_render_store.py), so it stays out of params.yaml and of dvc.yaml's
 #: commands, and changing it reruns no DVC stage (README "DVC").
@@ -22,22 +24,3 @@ def parallel_options(f):
                      help=f"Local dask worker processes (0: run in this process, no dask); without the flag, "
                           f"{WORKERS_ENV} when set.")(f)
     return f
-
-
-def storage_option(f):
-    """--storage-option KEY=VALUE (repeatable): s3fs options of s3:// stores (endpoint_url, key, secret, ...).
-
-    Applied when parsed (into this process's environment, which local dask workers inherit) and never recorded.
-    """
-    def apply(ctx, param, value):
-        if value:
-            from .objstore import set_storage_options
-
-            set_storage_options(value)
-        return value
-
-    return click.option("--storage-option", "storage_options", multiple=True, metavar="KEY=VALUE",
-                        expose_value=False, callback=apply,
-                        help="An s3fs option for s3:// stores (repeatable; dotted keys nest, values are YAML), "
-                             "e.g. endpoint_url=http://127.0.0.1:9000. Credentials: prefer AWS_* variables; "
-                             "options are never recorded.")(f)

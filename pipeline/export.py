@@ -26,7 +26,7 @@ from svcore.errors import StoreError
 from svcore.image_io import srgb_encode, write_exr, write_png
 from svcore.progress import progress
 
-from .store import refuse_inside
+from storage.store import refuse_inside
 
 Writer = Callable[[Path, str, np.ndarray, SVBRDF, dict], list[Path]]
 FORMATS: dict[str, Writer] = {}

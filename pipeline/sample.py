@@ -15,18 +15,21 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import truncnorm
 
 import materials
+from materials.params import perturb
 
 from svcore.errors import ConfigError
 from svcore.seeds import derive_seed
 
-from .bounds import check_store_size
+from storage.bounds import check_store_size
+from storage.store import recorded_path, write_chunk
+from storage.svbrdf_store import SVBRDFStore, array_specs, encode_maps
+
 from .config import SampleConfig
-from .runner import Stage
-from .store import write_chunk
-from .svbrdf_store import array_specs, encode_maps
+from .exec.runner import Stage
+from .importer.perturb import TABLE
+from .sample_from import imported_stores, plan_imported
 
 
 
@@ -86,26 +89,6 @@ def plan(cfg: SampleConfig) -> Plan:
     return Plan([p.name for p in select_presets(cfg)], cfg.per_preset, cfg.seed)
 
 
-def perturb(preset: materials.Preset, k: int, sigma: float, rng: np.random.Generator) -> dict[str, float]:
-    """Parameters of variant ``k``: defaults for k == 0, else truncated-normal draws around them.
-
-    Returns:
-        exposed parameter name -> value (inside the preset's range).
-    """
-    out = {}
-    for p in preset.exposed:
-        if k == 0 or p.high == p.low:
-            v = p.default
-        else:
-            scale = sigma * (p.high - p.low)
-            a, b = (p.low - p.default) / scale, (p.high - p.default) / scale
-            v = float(truncnorm.rvs(a, b, loc=p.default, scale=scale, random_state=rng))
-        if p.kind == "int":
-            v = float(np.clip(np.round(v), p.low, p.high))
-        out[p.name] = float(np.clip(v, p.low, p.high))
-    return out
-
-
 def make_variant(spec: VariantSpec, sigma: float, size: int) -> tuple[materials.SVBRDF, dict[str, float]]:
     """Maps and parameters of one variant: a pure function of (spec, sigma, size) and the code."""
     preset = materials.get_preset(spec.preset)
@@ -148,8 +131,6 @@ def sample_stage(cfg: SampleConfig) -> Stage:
     (:func:`pipeline.sample_from.sample_from_stage`).
     """
     materials.registry.check_size(cfg.size)
-    from .sample_from import imported_stores, sample_from_stage
-
     stores = imported_stores(cfg)
     if stores:
         return sample_from_stage(cfg, stores)
@@ -178,3 +159,35 @@ def run_sample(out, cfg: SampleConfig, workers: int = 2, scheduler_address: str 
         check_store_size(out, len(chosen) * cfg.per_preset, cfg.chunk,
                          array_specs("variants", cfg.size, max(len(p.exposed) for p in chosen)))
     return sample_stage(cfg).run(out, workers, scheduler_address)
+
+
+def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
+    """The sample stage with the imported stores' variants after the presets' (none with ``cfg.only_from``)."""
+    with_presets = not cfg.only_from
+    chosen = select_presets(cfg) if with_presets else []
+    specs: list = list(plan(cfg)) if with_presets else []
+    imported, records = plan_imported(stores, cfg.per_material, cfg.seed, cfg.size)
+    names = [p.name for p in chosen] + sorted({s.preset for s in imported}, key=[s.preset for s in imported].index)
+    if len(set(names)) != len(names):
+        raise ConfigError("an imported material has the name of a preset or of another imported material")
+    specs += imported
+    max_params = max([len(p.exposed) for p in chosen] + [len(TABLE)])
+    fixed = {"presets": names,
+             "param_names": {**{p.name: p.exposed.names() for p in chosen},
+                             **{s.preset: TABLE.names() for s in imported}},
+             "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]",
+             "materials": records}
+    hashes = [SVBRDFStore(s, "variants").attrs["svgen"]["config_hash"] for s in stores]
+
+    def attrs(out: Path) -> dict:  # the imported stores relative to the output's directory (storage.store)
+        return {**fixed, "imported": {"stores": [recorded_path(s, out) for s in stores], "config_hashes": hashes,
+                                      "per_material": cfg.per_material,
+                                      "table": {p.name: [p.default, p.low, p.high, p.doc] for p in TABLE}}}
+
+    # the imported stores' identities (config hashes, not how their paths are spelled) are part of the config:
+    # resuming against a re-imported store is refused; the path keys are not (#15: paths never in the hash)
+    config = {**{k: v for k, v in cfg.as_dict().items() if k not in ("from_stores", "from_dir")}, "from": hashes}
+    return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config, attrs,
+                 _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
+                                   preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
+                 desc="sample", unit="variant", inputs=tuple(stores))

@@ -4,7 +4,8 @@ material of imported variants stores, in one variants store (so blend and render
 Store order: the presets' variants exactly as `svgen sample` plans them, then the imported materials' variants,
 store by store, material by material. Imported variant k of material P uses derive_seed(seed, "sample",
 crc32(P), k) -- the presets' rule -- and pipeline.importer.perturb's table. The stage is the sample stage
-(:func:`pipeline.sample.sample_stage` with its chunk task); this module only plans the imported part.
+(:func:`pipeline.sample.sample_stage` with its chunk task, which composes this plan with the presets'); this
+module only plans the imported part.
 """
 from __future__ import annotations
 
@@ -14,14 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
+from materials.params import perturb
+
 from svcore.errors import ConfigError
 from svcore.seeds import derive_seed
 
+from storage.svbrdf_store import SVBRDFStore
+
 from .config import SampleConfig
-from .runner import Stage
-from .sample import _chunk_task, perturb, plan, select_presets
-from .store import recorded_path
-from .svbrdf_store import SVBRDFStore, array_specs
 
 
 @dataclass(frozen=True)
@@ -78,37 +79,3 @@ def make_imported(spec: ImportedSpec, sigma: float):
         _STORES[spec.store] = SVBRDFStore(spec.store, "variants")
     params = perturb(ImportedPreset, spec.k, sigma, np.random.default_rng(spec.seed))
     return apply(_STORES[spec.store].maps(spec.index), params), params
-
-
-def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
-    """The sample stage with the imported stores' variants after the presets' (none with ``cfg.only_from``)."""
-    from .importer.perturb import TABLE
-
-    with_presets = not cfg.only_from
-    chosen = select_presets(cfg) if with_presets else []
-    specs: list = list(plan(cfg)) if with_presets else []
-    imported, records = plan_imported(stores, cfg.per_material, cfg.seed, cfg.size)
-    names = [p.name for p in chosen] + sorted({s.preset for s in imported}, key=[s.preset for s in imported].index)
-    if len(set(names)) != len(names):
-        raise ConfigError("an imported material has the name of a preset or of another imported material")
-    specs += imported
-    max_params = max([len(p.exposed) for p in chosen] + [len(TABLE)])
-    fixed = {"presets": names,
-             "param_names": {**{p.name: p.exposed.names() for p in chosen},
-                             **{s.preset: TABLE.names() for s in imported}},
-             "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]",
-             "materials": records}
-    hashes = [SVBRDFStore(s, "variants").attrs["svgen"]["config_hash"] for s in stores]
-
-    def attrs(out: Path) -> dict:  # the imported stores relative to the output's directory (pipeline.store)
-        return {**fixed, "imported": {"stores": [recorded_path(s, out) for s in stores], "config_hashes": hashes,
-                                      "per_material": cfg.per_material,
-                                      "table": {p.name: [p.default, p.low, p.high, p.doc] for p in TABLE}}}
-
-    # the imported stores' identities (config hashes, not how their paths are spelled) are part of the config:
-    # resuming against a re-imported store is refused; the path keys are not (#15: paths never in the hash)
-    config = {**{k: v for k, v in cfg.as_dict().items() if k not in ("from_stores", "from_dir")}, "from": hashes}
-    return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config, attrs,
-                 _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
-                                   preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
-                 desc="sample", unit="variant", inputs=tuple(stores))

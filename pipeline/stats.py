@@ -23,7 +23,7 @@ from materials.maps import MAP_NAMES
 from svcore.errors import StoreError
 from svcore.progress import progress
 
-from .store import open_store
+from storage.store import open_store
 
 BINS = 32
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
@@ -38,7 +38,7 @@ def _maps_reader(path):
 
         r = RendersReader(path)
         return kind, r.n_svbrdf, r.base_maps
-    from .svbrdf_store import SVBRDFStore
+    from storage.svbrdf_store import SVBRDFStore
 
     s = SVBRDFStore(path)
     return kind, len(s), s.maps

@@ -23,16 +23,18 @@ import numpy as np
 import materials
 from materials import SVBRDF
 from materials.noise import Tex, height_to_normal
+from materials.params import perturb
+
 from svcore.errors import ConfigError
 from svcore.seeds import derive_seed
 
+from storage.bounds import check_store_size
+from storage.store import write_chunk
+from storage.svbrdf_store import array_specs, encode_maps
+
 from .blend import blend_pair, mask
-from .bounds import check_store_size
 from .config import StressConfig
-from .runner import Stage
-from .sample import perturb
-from .store import write_chunk
-from .svbrdf_store import array_specs, encode_maps
+from .exec.runner import Stage
 
 Category = Callable[[np.random.Generator, int], tuple[SVBRDF, dict]]
 CATEGORIES: dict[str, Category] = {}

@@ -81,7 +81,7 @@ def test_blend_mask_mode_through_a_store(stores, tmp_path, svgen_cli):
     from pipeline.blend import draw, make_blend
     from pipeline.config import BlendConfig
     from svcore.config import build
-    from pipeline.svbrdf_store import SVBRDFStore, encode_maps
+    from storage.svbrdf_store import SVBRDFStore, encode_maps
 
     code, err = svgen_cli("blend", stores / "v.zarr", tmp_path / "b.zarr", "--config-preset", "tiny", "--mode", "mask",
                           "--mask-per-map", "--workers", "0")

@@ -43,7 +43,7 @@ def test_the_import_graph_sees_lazy_and_registry_imports():
     """The finder is not vacuous: svgen's lazily imported stage module, the modules it imports inside functions
     and the material classes the registry imports by name are all seen."""
     sample = {str(p.relative_to(REPO)) for p in stage_deps.stage_files(STAGES["sample"]["cmd"])}
-    assert {"pipeline/cmd_sample.py", "pipeline/sample.py", "pipeline/sample_from.py", "svcore/seeds.py",
+    assert {"pipeline/commands/sample.py", "pipeline/sample.py", "pipeline/sample_from.py", "svcore/seeds.py",
             "materials/registry.py", "materials/classes/wood.py"} <= sample, sorted(sample)
     evaluate = {str(p.relative_to(REPO)) for p in stage_deps.stage_files(STAGES["eval"]["cmd"])}
     assert "train/evaluate.py" in evaluate and "train/fit.py" not in evaluate  # only `eval`'s function of the CLI

@@ -10,7 +10,7 @@ import pytest
 from import_fixtures import ambientcg, bumpy_normals, exr, height_field, matsynth, png8, png16, unit
 from pipeline.config import ImportConfig
 from pipeline.importer.job import run_import
-from pipeline.svbrdf_store import SVBRDFStore
+from storage.svbrdf_store import SVBRDFStore
 from svcore.config import build
 from svcore.image_io import srgb_decode
 from conftest import dump_maps, tree_digest

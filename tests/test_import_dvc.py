@@ -34,7 +34,7 @@ def project(d, sources):
 
 @pytest.mark.skipif(shutil.which("dvc") is None, reason="dvc is not installed")
 def test_dvc_import_stage(tmp_path):
-    from pipeline.svbrdf_store import SVBRDFStore
+    from storage.svbrdf_store import SVBRDFStore
 
     empty = project(tmp_path / "empty", [])
     r = sh(["dvc", "repro", "sample"], empty, env=IN_PROCESS)

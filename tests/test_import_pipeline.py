@@ -13,7 +13,7 @@ from import_fixtures import ambientcg, bumpy_normals, png8
 from conftest import tree_digest
 from pipeline.importer import normals as nm
 from pipeline.importer.perturb import TABLE, apply
-from pipeline.svbrdf_store import SVBRDFStore
+from storage.svbrdf_store import SVBRDFStore
 from svcore.seeds import derive_seed
 from materials.maps import SVBRDF
 

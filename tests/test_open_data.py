@@ -60,8 +60,8 @@ def _svbrdf_kinds():
 
 @pytest.mark.parametrize("name", _svbrdf_kinds())
 def test_xarray_decodes_svbrdf_stores_as_svgen_reads_them(stores, name):
-    from pipeline.store import verify_store
-    from pipeline.svbrdf_store import SVBRDFStore
+    from storage.store import verify_store
+    from storage.svbrdf_store import SVBRDFStore
 
     path = stores / f"{name}.zarr"
     st = SVBRDFStore(path)
@@ -205,7 +205,7 @@ def test_stores_record_the_svgen_version_from_git(stores):
 # -- the dataset card ----------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
 def test_every_finished_store_has_its_card(stores, name, svgen_cli):
-    from pipeline.card import card_text
+    from storage.card import card_text
 
     path = stores / f"{name}.zarr"
     text = (path / "README.md").read_text()
@@ -229,7 +229,7 @@ def test_every_finished_store_has_its_card(stores, name, svgen_cli):
 
 
 def test_card_write_regenerates_it(stores, tmp_path, svgen_cli):
-    from pipeline.store import verify_store
+    from storage.store import verify_store
 
     path = tmp_path / "v.zarr"
     shutil.copytree(stores / "variants.zarr", path)

@@ -1,4 +1,4 @@
-"""pipeline/parallel.py on real dask clusters: a chunk task that fails is retried and the store comes out whole and
+"""pipeline/exec/parallel.py on real dask clusters: a chunk task that fails is retried and the store comes out whole and
 byte-identical; each worker takes its drjit/numpy thread budget from its own CPUs, not the calling machine's."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 
 from conftest import stop_processes, tree_digest
 from pipeline.config import SampleConfig
-from pipeline.parallel import run_chunks, usable_cpus
+from pipeline.exec.parallel import run_chunks, usable_cpus
 from pipeline.sample import run_sample
 from svcore.config import build
 

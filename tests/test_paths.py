@@ -10,7 +10,7 @@ import sys
 import pytest
 
 from conftest import tree_digest
-from pipeline.store import partial_path
+from storage.store import partial_path
 from test_bad_input import call
 from train.cli import svtrain
 

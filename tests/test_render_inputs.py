@@ -9,7 +9,7 @@ from pipeline.config import BlendConfig, RenderConfig, SampleConfig, StressConfi
 from pipeline.render.stage import run_render
 from pipeline.render.store import RendersReader
 from pipeline.stress import EDGE_LIGHT_RADIUS, run_stress
-from pipeline.svbrdf_store import SVBRDFStore
+from storage.svbrdf_store import SVBRDFStore
 from svcore.config import build
 
 

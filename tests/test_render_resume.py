@@ -14,7 +14,7 @@ from conftest import chunk_stats, tree_digest
 from pipeline.config import SampleConfig
 from pipeline.render.store import RendersReader
 from pipeline.sample import run_sample
-from pipeline.store import DONE_DIR, partial_path
+from storage.store import DONE_DIR, partial_path
 from svcore.config import build
 from svcore.errors import StoreError
 

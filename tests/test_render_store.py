@@ -13,8 +13,8 @@ from pipeline.render.scene import FlashScene
 from pipeline.render.stage import run_render
 from pipeline.render.store import RendersReader
 from pipeline.sample import run_sample
-from pipeline.store import StoreWriter, write_chunk
-from pipeline.svbrdf_store import encode_maps, map_specs
+from storage.store import StoreWriter, write_chunk
+from storage.svbrdf_store import encode_maps, map_specs
 from svcore.config import build
 
 PRESETS = ("paint/glossy_red", "metal/aluminium_plate")
@@ -110,7 +110,7 @@ def _bad_variants(path, normal_z: float):
 
 
 def _extra_specs():
-    from pipeline.store import ArraySpec
+    from storage.store import ArraySpec
 
     return {"seed": ArraySpec((), "uint64"), "preset": ArraySpec((2,), "int32")}
 

@@ -203,7 +203,7 @@ def test_worker_killed_mid_task_the_store_ends_identical(s3, inputs, cluster):
     cannot finish in between), the scheduler is asked again that the task is still its, and it is killed with
     SIGKILL. The scheduler reruns the task on a surviving worker and the store ends complete and identical to a
     one-process run. (A dead worker's task is rerun by the scheduler's ``allowed-failures`` (3), not by the task
-    ``retries`` of pipeline.parallel.RETRIES, which rerun a task that raised: with ``allowed-failures`` 0 this
+    ``retries`` of pipeline.exec.parallel.RETRIES, which rerun a task that raised: with ``allowed-failures`` 0 this
     test fails with KilledWorker; with RETRIES 0 it passes.)"""
     variants, ref = inputs
     s3.fs().put(str(variants), f"{s3.bucket}/in/variants.zarr", recursive=True)

@@ -11,7 +11,7 @@ from conftest import tree_digest
 from pipeline.blend import MIN_NZ, blend_normals, mask
 from pipeline.config import SampleConfig
 from pipeline.sample import VariantSpec, perturb, plan
-from pipeline.svbrdf_store import SVBRDFStore
+from storage.svbrdf_store import SVBRDFStore
 from svcore.config import build
 
 TWO = ("--preset", "paint/glossy_red", "--preset", "paint/matte_wall")

@@ -11,7 +11,7 @@ import pytest
 
 from conftest import chunk_stats, tree_digest
 from svcore.errors import StoreError
-from pipeline.store import DONE_DIR, open_store, partial_path
+from storage.store import DONE_DIR, open_store, partial_path
 
 ARGS = ["sample", "--config-preset", "tiny", "--size", "128", "--per-preset", "8", "--chunk", "2", "--workers", "0",
         "--preset", "paint/glossy_red", "--preset", "paint/matte_wall"]

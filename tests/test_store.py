@@ -6,7 +6,7 @@ import pytest
 import zarr
 
 from svcore.errors import StoreError
-from pipeline.store import ArraySpec, StoreWriter, open_store, partial_path, read_region, write_chunk
+from storage.store import ArraySpec, StoreWriter, open_store, partial_path, read_region, write_chunk
 
 ARRAYS = {"x": ArraySpec((4, 4, 3), "uint16", "test"), "seed": ArraySpec((), "uint64")}
 

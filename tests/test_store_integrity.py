@@ -13,7 +13,7 @@ import zarr
 
 from conftest import tree_digest
 from svcore.errors import StoreError
-from pipeline.store import MANIFEST, open_store, partial_path, verify_store
+from storage.store import MANIFEST, open_store, partial_path, verify_store
 from train.cli import svtrain
 
 SAMPLE = ["sample", "--config-preset", "tiny", "--per-preset", "2", "--chunk", "1", "--workers", "0",
@@ -147,7 +147,7 @@ def test_a_partial_started_by_an_older_svgen_finishes_with_a_manifest(tmp_path):
     """Markers that say only "ok" and schema 1: the resumed run hashes those chunks at finalize."""
     import numpy as np
 
-    from pipeline.store import DONE_DIR, ArraySpec, StoreWriter, write_chunk
+    from storage.store import DONE_DIR, ArraySpec, StoreWriter, write_chunk
 
     arrays = {"x": ArraySpec((2,), "uint16"), "seed": ArraySpec((), "uint64")}
     out = tmp_path / "s.zarr"

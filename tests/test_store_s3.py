@@ -23,7 +23,7 @@ from test_render_resume import ARGS, N_SVBRDF, reference, variants  # noqa: F401
 
 from pipeline.config import SampleConfig
 from pipeline.sample import run_sample
-from pipeline.store import DONE_DIR, MANIFEST, StoreWriter, open_store
+from storage.store import DONE_DIR, MANIFEST, StoreWriter, open_store
 from svcore.config import build
 from svcore.errors import StoreError
 
@@ -164,7 +164,7 @@ def test_server_stops_mid_run_then_resumes_identical(variants, reference, s3):  
 
 def test_second_writer_is_refused(s3):
     """The lock object is created with a conditional put: while one writer holds it, another is refused."""
-    from pipeline.svbrdf_store import array_specs
+    from storage.svbrdf_store import array_specs
 
     args = (s3.url("busy.zarr"), "variants", 4, 2, array_specs("variants", 8, 2), {"x": 1})
     with StoreWriter(*args) as w:
@@ -205,10 +205,10 @@ def test_faults_are_one_line(case, s3, svgen_cli, monkeypatch, tmp_path):
         monkeypatch.setenv("AWS_SECRET_ACCESS_KEY", "wrong")
         args = [*cmd, s3.url("v.zarr")]
     else:  # a store whose run was killed: readers refuse it
-        from pipeline.svbrdf_store import array_specs
+        from storage.svbrdf_store import array_specs
 
         w = StoreWriter(s3.url("v.zarr"), "variants", 2, 1, array_specs("variants", 8, 2), {"x": 1}).__enter__()
-        from pipeline.store import write_chunk
+        from storage.store import write_chunk
 
         write_chunk(w.partial, 0, 0, {"seed": np.zeros(1, np.uint64)})
         w._unlock()

@@ -18,7 +18,7 @@ from pipeline.config import RenderConfig, SampleConfig
 from pipeline.render.stage import run_render
 from pipeline.render.store import RendersReader
 from pipeline.sample import run_sample
-from pipeline.store import DONE_DIR, MANIFEST, SMALL_SAMPLE_BYTES, open_store, partial_path, verify_store
+from storage.store import DONE_DIR, MANIFEST, SMALL_SAMPLE_BYTES, open_store, partial_path, verify_store
 from svcore.config import build
 
 PRESETS = ("paint/glossy_red", "wood/mahogany_veneer")
@@ -126,7 +126,7 @@ def test_a_schema_2_store_stays_readable(variants, reference, tmp_path, monkeypa
     import xarray as xr
     from zarr.codecs import Crc32cCodec, ZstdCodec
 
-    from pipeline import store as S
+    from storage import store as S
 
     def unsharded(spec, n, chunk):
         return {"shape": (n, *spec.shape), "chunks": (chunk, *spec.shape), "dtype": spec.dtype,

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from pipeline.cli_options import storage_option
+from storage.options import storage_option
 from svcore.cli import config_command, run_cli, version_option
 from svcore.log import configure, get_logger
 

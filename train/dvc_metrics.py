@@ -13,8 +13,9 @@ import json
 import math
 from pathlib import Path
 
-from .evaluate import COLUMNS
-
+#: the held-out table's columns (the re-render error, then one per map): what evaluation measures and what
+#: DVC compares; defined here, the lower module, so the evaluation imports it and nothing imports back.
+COLUMNS = ("rerender", "normal", "diffuse", "roughness", "specular")
 FIT_FILE = "fit_metrics.json"
 EVAL_FILE = "eval_metrics.json"
 

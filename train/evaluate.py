@@ -22,21 +22,22 @@ from typing import Callable
 import numpy as np
 import torch
 
-from pipeline.store import refuse_inside
 from svcore.errors import ConfigError
 from svcore.progress import progress
 
-from . import runinfo
+from storage.store import refuse_inside
+
+from . import dvc_metrics, runinfo
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .config import Config
 from .data import PairDataset, open_source, split_for
+from .dvc_metrics import COLUMNS
 from .eval_chart import groups_of, plot_eval
 from .render import flash_render
 
 #: flash offsets of the re-rendering metric: the capture position and four moved lights.
 EVAL_LIGHTS = ((0.0, 0.0), (0.5, 0.0), (-0.4, 0.4), (0.3, -0.6), (-0.7, -0.7))
 MAPS = {"normal": NORMAL, "diffuse": DIFFUSE, "roughness": ROUGHNESS, "specular": SPECULAR}
-COLUMNS = ("rerender", "normal", "diffuse", "roughness", "specular")
 #: the key of :func:`evaluate`'s per-view model errors, which run_eval writes to per_view.csv, not eval.json.
 PER_VIEW = "per_view"
 PER_VIEW_FILE = "per_view.csv"
@@ -297,8 +298,6 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     out.mkdir(parents=True, exist_ok=True)
     write_per_view(out / PER_VIEW_FILE, per_view)
     (out / "eval.json").write_text(json.dumps(res, indent=2) + "\n")
-    from . import dvc_metrics
-
     dvc_metrics.write(out / dvc_metrics.EVAL_FILE, dvc_metrics.eval_metrics(res))  # what `dvc metrics` shows
     (out / "eval.md").write_text(markdown(res))
     plot_eval(groups_of(res), out / "eval.png", f"svtrain eval --suite {suite}: {checkpoint_path}")

@@ -73,7 +73,7 @@ def provenance(cfg: Config, src) -> dict:
 
 def _resolved(store) -> str:
     """A store argument as recorded: an object-store URL as given, a local path resolved."""
-    from pipeline.objstore import is_object_url, local_path
+    from storage.objstore import is_object_url, local_path
 
     return str(store) if is_object_url(store) else str(Path(local_path(store)).resolve())
 

@@ -19,7 +19,7 @@ RUN_FILE = "run.json"
 
 def record(run_dir: str | os.PathLike, store: str | None) -> None:
     """Write ``run_dir/run.json``: the training store as given and relative to the run directory."""
-    from pipeline.objstore import is_object_url, local_path, normalize_url
+    from storage.objstore import is_object_url, local_path, normalize_url
 
     run = Path(run_dir)
     # an object-store URL is the same from anywhere: recorded as it is
@@ -79,7 +79,7 @@ def train_store(checkpoint_path: str | os.PathLike, store: str | None, override:
         return str(override)
     if store is None:
         return None
-    from pipeline.objstore import is_object_url
+    from storage.objstore import is_object_url
 
     if is_object_url(store):
         return str(store)
@@ -117,8 +117,8 @@ def check_run(cfg, out_dir: str | os.PathLike, n_train: int, global_batch: int |
     Raises:
         ConfigError / StoreError: one line naming the limit.
     """
-    from pipeline.bounds import available_memory
-    from pipeline.store import refuse_inside
+    from storage.bounds import available_memory
+    from storage.store import refuse_inside
     from svcore.errors import ConfigError
 
     refuse_inside(out_dir, cfg.data.store)

@@ -1,4 +1,4 @@
-"""`svgen import` as a stage: plan the materials, then :class:`pipeline.runner.Stage` runs the chunk tasks that
+"""`svgen import` as a stage: plan the materials, then :class:`pipeline.exec.runner.Stage` runs the chunk tasks that
 convert them and writes a variants store (or a renders store for `--as renders`), resumable like every stage.
 
 A chunk task is a pure function of (config, material list, source bytes): the same bytes for any worker count.
@@ -19,12 +19,13 @@ from materials.maps import MAP_NAMES
 
 from svcore.errors import ConfigError
 
-from ..config import ImportConfig
-from ..runner import Stage
-from ..store import recorded_path, side_read, side_remove, side_write, write_chunk
-from ..svbrdf_store import array_specs as svbrdf_array_specs
-from ..svbrdf_store import encode_maps
+from storage.store import recorded_path, side_read, side_remove, side_write, write_chunk
+from storage.svbrdf_store import array_specs as svbrdf_array_specs
+from storage.svbrdf_store import encode_maps
+
 from . import ImportInputError
+from ..config import ImportConfig
+from ..exec.runner import Stage
 from .convert import preflight
 from .discover import MaterialSource, find_folders
 from .strips import find_strips, tile_size
@@ -197,7 +198,7 @@ def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
         arrays["seed"] = dataclasses.replace(arrays["seed"], encoding="crc32 of the material name")
         kind = "variants"
 
-    def attrs(out: Path) -> dict:  # the source folders relative to the output's directory (pipeline.store)
+    def attrs(out: Path) -> dict:  # the source folders relative to the output's directory (storage.store)
         srcs = [recorded_path(s, out) for s in cfg.sources]
         a = {**fixed, "import": {"layout": layout, "sources": srcs, "seed": "crc32 of the material name (import is "
                                  "deterministic; the value only identifies it)"}}

@@ -12,11 +12,13 @@ import functools
 import numpy as np
 
 from materials.maps import MAP_NAMES
+
 from svcore.errors import StoreError
 
+from storage.store import StoreWriter, write_chunk
+
 from ..config import RenderConfig
-from ..runner import Stage
-from ..store import StoreWriter, write_chunk
+from ..exec.runner import Stage
 
 _SCENES: dict[tuple, object] = {}
 _INPUTS: dict[str, SVBRDFStore] = {}
@@ -61,7 +63,7 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
 
 def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], cfg: RenderConfig, n: int) -> int:
     """Worker: render the SVBRDFs of chunk c and write the whole chunk. Returns the number of views."""
-    from ..svbrdf_store import SVBRDFInputs, decode_maps
+    from storage.svbrdf_store import SVBRDFInputs, decode_maps
     from ..mi_env import dr
 
     dr.set_thread_count(max(1, threads))
@@ -100,7 +102,7 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
     Raises:
         StoreError: an input missing or of the wrong kind.
     """
-    from ..svbrdf_store import SVBRDFInputs
+    from storage.svbrdf_store import SVBRDFInputs
     from .scene import mi, scene_constants, scene_description
     from .store import KIND, array_specs
     from .views import R_MAX, R_MIN, ZOOM_MAX, ZOOM_MIN
@@ -139,7 +141,7 @@ def record_split(partial) -> dict:
 
     from svcore.split import split_record
 
-    from ..objstore import zarr_location
+    from storage.objstore import zarr_location
 
     g = zarr.open_group(zarr_location(partial), mode="r")
     names = list(g.attrs.get("presets", []))

@@ -34,8 +34,9 @@ from materials.maps import MAP_NAMES, SVBRDF
 
 from svcore.errors import StoreError
 
-from ..store import ArraySpec, ChunkCache, open_store, read_region
-from ..svbrdf_store import decode_maps, map_specs
+from storage.store import ArraySpec, ChunkCache, open_store, read_region
+from storage.svbrdf_store import decode_maps, map_specs
+
 from .encoding import ENCODING, decode_srgb8
 from .views import VIEW_FIELDS, VIEW_LONG_NAMES, VIEW_UNITS, ViewParams
 
@@ -46,7 +47,7 @@ def array_specs(views: int, res: int, base: int) -> dict[str, ArraySpec]:
     """ArraySpecs of a renders store (one SVBRDF = one sample), with the per-array attributes a reader without
     svgen needs: the image's nonlinear encoding (no scale_factor: the sRGB curve is not linear), the units of
     every view parameter."""
-    from ..svbrdf_store import LINEAR_SRGB, _index
+    from storage.svbrdf_store import LINEAR_SRGB, _index
 
     index = {k: _index(*a) for k, a in {
         "source": ("index of the SVBRDF in its input store",), "source_seed": ("seed of that SVBRDF in its input store",),

@@ -9,7 +9,7 @@ import click
 @click.option("--write", is_flag=True, help="Write the card to STORE/README.md (regenerate it) instead of printing it.")
 def card(store: str, write: bool) -> None:
     """Print the dataset card of STORE (a complete svgen store of any kind), made from its own attributes."""
-    from .card import card_text, write_card
+    from storage.store import card_text, write_card
 
     if write:
         click.echo(f"wrote {write_card(store)}")

@@ -1,6 +1,6 @@
 """The commit protocol of stores on object storage (``s3://``): no rename, no flock, the same promises.
 
-A local store is built under ``<out>.partial``, guarded by ``flock`` and renamed into place (:mod:`pipeline.store`).
+A local store is built under ``<out>.partial``, guarded by ``flock`` and renamed into place (:mod:`storage.store`).
 An object store has neither rename (a copy of every object) nor locks, so the store is written in place and its
 state is told by objects:
 
@@ -40,7 +40,7 @@ import zarr
 from svcore.errors import StoreError
 from svcore.log import get_logger
 
-from . import store as S
+from . import local as S
 from .objstore import ObjectLocation, record_of, s3_errors
 
 log = get_logger(__name__)
@@ -57,7 +57,7 @@ def lock_ttl() -> float:
 
 
 class ObjectStoreWriter(S.StoreWriter):
-    """:class:`pipeline.store.StoreWriter` for an ``s3://`` store (made by ``StoreWriter(url, ...)``).
+    """:class:`storage.store.StoreWriter` for an ``s3://`` store (made by ``StoreWriter(url, ...)``).
 
     ``final`` and ``partial`` are both the store's URL: the store is written in place and is incomplete until its
     ``complete`` attribute says otherwise.
@@ -256,7 +256,7 @@ class ObjectStoreWriter(S.StoreWriter):
 
 
 def write_chunk_object(url: str, c: int, start: int, data: dict[str, np.ndarray]) -> None:
-    """:func:`pipeline.store.write_chunk` on an object store (in a worker, on any machine)."""
+    """:func:`storage.store.write_chunk` on an object store (in a worker, on any machine)."""
     loc = ObjectLocation(url)
     with s3_errors(loc.url, "write a chunk of"):
         g = zarr.open_group(loc.zarr_store(read_only=False), mode="r+")
@@ -272,7 +272,7 @@ def _incomplete(url: str) -> str:
 
 
 def open_object_store(url: str, kinds: tuple[str, ...]) -> zarr.Group:
-    """:func:`pipeline.store.open_store` for ``s3://``: the same checks, chunks read through a local cache.
+    """:func:`storage.store.open_store` for ``s3://``: the same checks, chunks read through a local cache.
 
     Raises:
         StoreError: missing bucket or store, unreachable endpoint, denied access, incomplete, foreign, damaged.
@@ -308,7 +308,7 @@ def open_object_store(url: str, kinds: tuple[str, ...]) -> zarr.Group:
 
 
 def verify_object_store(url: str, g: zarr.Group) -> int:
-    """:func:`pipeline.store.verify_store` for ``s3://``: re-hash every chunk object (read from the bucket)."""
+    """:func:`storage.store.verify_store` for ``s3://``: re-hash every chunk object (read from the bucket)."""
     loc = ObjectLocation(url)
     with s3_errors(loc.url, "verify"):
         man = json.loads(loc.read(S.MANIFEST))

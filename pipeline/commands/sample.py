@@ -5,8 +5,8 @@ import click
 
 from svcore.cli import config_command, require
 
-from .cli_options import parallel_options
-from .config import SampleConfig
+from ..cli_options import parallel_options
+from ..config import SampleConfig
 
 
 @config_command(SampleConfig, {"per_preset": "--per-preset", "size": "--size", "seed": "--seed", "sigma": "--sigma",
@@ -20,7 +20,7 @@ def sample(out, cfg, workers, scheduler_address):
 
     With --from (or --from-dir), the materials of imported variants stores (`svgen import`) are perturbed too.
     """
-    from .sample import run_sample
+    from ..sample import run_sample
 
     require(out=out)
     path = run_sample(out, cfg, workers=workers, scheduler_address=scheduler_address)

@@ -1,7 +1,7 @@
 """Stores on object storage: where a store argument names a bucket (``s3://bucket/prefix/name.zarr``).
 
 A store argument is a plain path, a ``file://`` URL (the same as the plain path: the local store of
-:mod:`pipeline.store`, byte for byte) or an ``s3://`` URL, read and written through zarr v3's
+:mod:`storage.store`, byte for byte) or an ``s3://`` URL, read and written through zarr v3's
 :class:`~zarr.storage.FsspecStore` on an asynchronous s3fs file system (zarr-python #2554 / dask #11691: the
 file system must be async).
 

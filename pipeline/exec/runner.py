@@ -6,9 +6,9 @@ length, array specs, the configuration that must match for a resume, attributes,
 the rest the same way for all of them: create or resume the ``.partial`` store, skip finished chunks, show one
 progress bar in the stage's units, and move the store into place when every chunk is written.
 
-The data-safety checks live here and in :class:`~pipeline.store.StoreWriter`, so every stage gets them: an output
+The data-safety checks live here and in :class:`~storage.store.StoreWriter`, so every stage gets them: an output
 inside one of the stage's inputs is refused, the store must fit in memory per chunk task and on disk
-(:mod:`pipeline.bounds`), the local workers must fit in memory, and input paths are recorded relative to the
+(:mod:`storage.bounds`), the local workers must fit in memory, and input paths are recorded relative to the
 output (attributes given as a function of the output path), never in the configuration hash.
 """
 from __future__ import annotations
@@ -20,9 +20,10 @@ from typing import Any, Callable, Union
 
 from svcore.log import get_logger
 
-from .objstore import is_object_url, local_path
+from storage.objstore import is_object_url, local_path
+from storage.store import ArraySpec, StoreWriter, open_writer
+
 from .parallel import run_chunks
-from .store import ArraySpec, StoreWriter
 
 log = get_logger(__name__)
 
@@ -38,7 +39,7 @@ class Stage:
         arrays: array name -> spec of one sample.
         config: the resolved configuration; its hash decides whether a ``.partial`` store may be resumed.
         attrs: further store attributes, or a function of the output path returning them (attributes that record
-            input paths relative to the output: :func:`pipeline.store.recorded_path`).
+            input paths relative to the output: :func:`storage.store.recorded_path`).
         task: module-level worker function ``(c, threads, *, partial, **task_kw) -> units written``.
         task_kw: its keyword arguments (picklable: they travel to the dask workers).
         desc, unit: progress label and unit ("variant", "view").
@@ -69,7 +70,7 @@ class Stage:
             StoreError: ``out`` exists or lies inside an input. ConfigError: a chunk task or the store cannot fit.
         """
         attrs = self.attrs(out if is_object_url(out) else Path(local_path(out))) if callable(self.attrs) else self.attrs
-        return StoreWriter(out, self.kind, self.n, self.chunk, self.arrays, self.config, attrs, inputs=self.inputs)
+        return open_writer(out, self.kind, self.n, self.chunk, self.arrays, self.config, attrs, inputs=self.inputs)
 
     def task_for(self, w: StoreWriter) -> Callable[[int, int], int]:
         """The picklable ``(chunk id, threads) -> units`` of this stage writing into ``w``'s partial store."""

@@ -5,8 +5,8 @@ import click
 
 from svcore.cli import config_command, require
 
-from .cli_options import parallel_options
-from .config import StressConfig
+from ..cli_options import parallel_options
+from ..config import StressConfig
 
 
 @config_command(StressConfig, {"per_category": "--per-category", "size": "--size", "seed": "--seed",
@@ -15,7 +15,7 @@ from .config import StressConfig
 @parallel_options
 def stress(out, cfg, workers, scheduler_address):
     """Write the stress categories (glossy, edge highlight, prints, dark/bright albedo, decorrelated, reference)."""
-    from .stress import run_stress
+    from ..stress import run_stress
 
     require(out=out)
     path = run_stress(out, cfg, workers=workers, scheduler_address=scheduler_address)

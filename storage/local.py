@@ -1,4 +1,5 @@
-"""zarr v3 stores that never look complete before they are.
+"""zarr v3 stores that never look complete before they are: the store format and its local-filesystem writer
+and reader (``s3://`` stores: :mod:`storage.store_object`; the door for both: :mod:`storage.store`).
 
 Life of a store written by a stage:
 
@@ -13,7 +14,7 @@ Life of a store written by a stage:
 3. :meth:`StoreWriter.finalize` checks every marker, writes the chunk manifest
    (``svgen_manifest.json``: per array and chunk, the chunk file's size and SHA-256, or null where zarr wrote
    no file because the chunk is all fill value), writes ``complete: true``, consolidates metadata, writes the
-   dataset card ``README.md`` (:mod:`pipeline.card`) and renames ``.partial`` into place.
+   dataset card ``README.md`` (:mod:`storage.card`) and renames ``.partial`` into place.
 
 Every array has ``dimension_names`` (``sample`` first) and its own CF attributes (:class:`ArraySpec`), so
 ``xarray.open_zarr`` opens any store and decodes the maps' codes by their ``scale_factor``/``add_offset``.
@@ -220,15 +221,10 @@ class StoreWriter:
         inputs: the stores this run reads; an output inside one of them is refused.
     """
 
-    def __new__(cls, path, *args, **kwargs):
-        if cls is StoreWriter and is_object_url(path):  # s3://…: the commit protocol without rename or flock
-            from .store_object import ObjectStoreWriter
-
-            return super().__new__(ObjectStoreWriter)
-        return super().__new__(cls)
-
     def __init__(self, path, kind: str, n: int, chunk: int, arrays: dict[str, ArraySpec], config: dict,
                  attrs: dict | None = None, inputs=()):
+        if is_object_url(path):  # s3://…: the commit protocol without rename or flock (storage.store.open_writer)
+            raise StoreError(f"{path}: an object-store URL; its writer is storage.store.open_writer's")
         self.final = Path(local_path(path))
         self.partial = partial_path(self.final)
         self.lockfile = self.final.with_name(self.final.name + LOCK_SUFFIX)
@@ -417,12 +413,6 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
         start: first sample index of the chunk.
         data: array name -> (n_in_chunk, *sample_shape) values already in the on-disk dtype.
     """
-    if is_object_url(partial):
-        from .store_object import write_chunk_object
-
-        write_chunk_object(str(partial), c, start, data)
-        _kill_hook("chunk")
-        return
     g = zarr.open_group(partial, mode="r+")
     for name, arr in data.items():
         g[name][start:start + len(arr)] = arr
@@ -537,10 +527,6 @@ def open_store(path: str | os.PathLike, kind: str | tuple[str, ...]) -> zarr.Gro
         StoreError: missing, still partial, foreign, of another kind, newer schema, or incomplete.
     """
     kinds = (kind,) if isinstance(kind, str) else tuple(kind)
-    if is_object_url(path):
-        from .store_object import open_object_store
-
-        return open_object_store(str(path), kinds)
     p = Path(local_path(path))
     want = " or ".join(kinds)
     if p.name.endswith(PARTIAL_SUFFIX) or p.name.endswith(PARTIAL_SUFFIX + CREATING_SUFFIX):
@@ -647,10 +633,6 @@ def verify_store(path: str | os.PathLike) -> int:
         StoreError: the first chunk whose bytes differ, naming the array and the samples.
     """
     g = open_store(path, tuple(_ALL_KINDS))
-    if is_object_url(path):
-        from .store_object import verify_object_store
-
-        return verify_object_store(str(path), g)
     p = Path(local_path(path))
     man = json.loads((p / MANIFEST).read_text())
     n, chunk, checked = int(man["n"]), int(man["chunk"]), 0

@@ -5,8 +5,8 @@ import click
 
 from svcore.cli import config_command, require
 
-from .cli_options import parallel_options
-from .config import BlendConfig
+from ..cli_options import parallel_options
+from ..config import BlendConfig
 
 
 @config_command(BlendConfig, {"count": "--count", "seed": "--seed", "alpha_low": "--alpha-low",
@@ -17,7 +17,7 @@ from .config import BlendConfig
 @parallel_options
 def blend(variants, out, cfg, workers, scheduler_address):
     """Blend random pairs of the VARIANTS store into a blends store at OUT."""
-    from .blend import run_blend
+    from ..blend import run_blend
 
     require(variants=variants, out=out)
     path = run_blend(variants, out, cfg, workers=workers, scheduler_address=scheduler_address)

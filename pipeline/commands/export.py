@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .cli_options import storage_option
+from ..cli_options import storage_option
 
 
 @click.command()
@@ -15,7 +15,7 @@ from .cli_options import storage_option
 @click.option("--limit", type=click.IntRange(min=1), default=None, help="Only the first N views.")
 def export(renders, out, fmt, limit):
     """Write the views of a RENDERS store to files under OUT."""
-    from .export import export as run_export
+    from ..export import export as run_export
 
     n = run_export(renders, out, fmt, limit)
     click.echo(f"wrote {n} views to {out}")

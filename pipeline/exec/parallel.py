@@ -184,7 +184,7 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
         return 0
     address = resolve_scheduler(scheduler_address)
     if not address:
-        from .bounds import check_workers
+        from storage.bounds import check_workers
 
         check_workers(max(1, workers), task_bytes)
     written = 0

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .cli_options import storage_option
+from ..cli_options import storage_option
 
 
 @click.command()
@@ -18,7 +18,7 @@ def stats(stores, out, limit, stride):
     import json
     from pathlib import Path
 
-    from .stats import chart, store_stats, table
+    from ..stats import chart, store_stats, table
 
     results = [store_stats(s, limit, stride) for s in stores]
     md = table(results)

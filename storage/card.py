@@ -1,6 +1,6 @@
 """The dataset card (``README.md``) of a store: Hugging Face style, generated from the store's own attributes.
 
-:meth:`pipeline.store.StoreWriter.finalize` writes it into the store before the store is moved into place (so a
+:meth:`storage.local.StoreWriter.finalize` writes it into the store before the store is moved into place (so a
 partial store never has one), and ``svgen card STORE [--write]`` prints or regenerates it. It holds nothing that
 is not in the store (no date, no path of the store itself), so the same command gives the same card and two runs
 compared byte for byte still agree.
@@ -15,11 +15,8 @@ prefer files.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import yaml
-
-from svcore.errors import StoreError
 
 CARD = "README.md"
 #: the licence of generated data (the code's licence is the repository's LICENSE, MIT).
@@ -109,7 +106,7 @@ def _command(kind: str, attrs: dict) -> tuple[str, str]:
 
 def _section(name: str, config: dict) -> dict:
     """The keys of ``config`` that are settable in a params.yaml section (the rest identify inputs)."""
-    from .config import STAGE_CONFIGS
+    from pipeline.config import STAGE_CONFIGS
 
     cls = STAGE_CONFIGS.get(name)
     keys = set(cls.model_fields) if cls is not None else set(config)
@@ -216,25 +213,3 @@ def render_card(group) -> str:
             "Imported materials keep their own licences (the `materials` attribute records their sources).", "",
             "## Citation", "", "The method this data follows:", "", "```bibtex", CITATION, "```", ""]
     return "\n".join(out)
-
-
-def card_text(path) -> str:
-    """The card of a complete store at ``path`` (any kind).
-
-    Raises:
-        StoreError: missing, incomplete or not an svgen store.
-    """
-    from .store import _ALL_KINDS, open_store
-
-    return render_card(open_store(path, _ALL_KINDS))
-
-
-def write_card(path) -> Path:
-    """(Re)write the card of a complete store; returns its path."""
-    text = card_text(path)
-    dst = Path(path) / CARD
-    tmp = dst.with_suffix(".md.tmp")
-    tmp.write_text(text)
-    tmp.replace(dst)
-    return dst
-

@@ -5,8 +5,8 @@ import click
 
 from svcore.cli import config_command, require
 
-from .cli_options import parallel_options
-from .config import ImportConfig
+from ..cli_options import parallel_options
+from ..config import ImportConfig
 
 
 @config_command(ImportConfig, {"layout": "--layout", "size": "--size", "normal_convention": "--normal-convention",
@@ -26,7 +26,7 @@ def import_(paths, cfg, allow_empty, workers, scheduler_address):
 
     from svcore.config import validate
 
-    from .importer.job import run_import
+    from ..importer.job import run_import
 
     require(out=paths)
     *sources, out = paths
