@@ -25,7 +25,7 @@ from pathlib import Path
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("svcore", "pipeline", "materials", "train")
+PACKAGES = ("svcore", "storage", "pipeline", "materials", "train")
 
 
 def module_file(name: str, root: Path = ROOT) -> Path | None:
