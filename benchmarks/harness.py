@@ -19,10 +19,12 @@ import importlib.util
 import json
 import os
 import platform
+import re
 import shlex
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from importlib import metadata
 from pathlib import Path
@@ -78,7 +80,9 @@ def _code() -> dict:
     """Where the imported project lives and its git commit (``dirty`` when the tree has uncommitted changes)."""
     spec = importlib.util.find_spec("pipeline")
     where = Path(spec.origin).resolve().parents[1] if spec and spec.origin else None
-    out: dict[str, Any] = {"path": str(where) if where else None, "commit": None, "dirty": None}
+    # the path relative to this repository ("." when the measured code is this checkout): results files hold no
+    # absolute paths (they would leak one machine's layout and mean nothing elsewhere)
+    out: dict[str, Any] = {"path": _relative(str(where)) if where else None, "commit": None, "dirty": None}
     if where is not None:
         try:
             git = ["git", "-C", str(where)]
@@ -130,10 +134,40 @@ def command() -> str:
     return shlex.join(["python3", str(script), *sys.argv[1:]])
 
 
+#: an absolute path inside a string: a "/" that does not follow a word, a dot, a colon or another slash (so not
+#: "s/view", "./x" or "s3://bucket/key"), then at least two path components.
+ABSOLUTE_PATH = re.compile(r"(?<![\w.~:/-])/[\w.+@-]+(?:/[\w.+@-]+)+")
+
+
+def _relative(path: str, root: Path = ROOT) -> str:
+    """``path`` relative to the repository ``root``; a temporary file as ``$TMPDIR/...``; else relative to
+    ``root`` with ``..`` (never absolute)."""
+    p = Path(path)
+    tmp = Path(tempfile.gettempdir())
+    if p.is_relative_to(root):
+        return str(p.relative_to(root))
+    if p.is_relative_to(tmp):
+        return str("$TMPDIR" / p.relative_to(tmp))
+    return os.path.relpath(p, root)
+
+
+def repo_relative(obj: Any, root: Path = ROOT) -> Any:
+    """``obj`` (JSON-able) with every absolute path inside its strings made relative (:func:`_relative`)."""
+    if isinstance(obj, str):
+        return ABSOLUTE_PATH.sub(lambda m: _relative(m.group(0), root), obj)
+    if isinstance(obj, dict):
+        return {k: repo_relative(v, root) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [repo_relative(v, root) for v in obj]
+    return obj
+
+
 def write_results(path: str | os.PathLike, result: dict, note: str | None = None) -> Path:
     """Write a results JSON: ``result`` plus ``command``, ``machine`` (:func:`machine_info`) and ``note``.
 
-    Keys the result already has win (a script may record its own command). Parent folders are created.
+    Keys the result already has win (a script may record its own command). Parent folders are created. Absolute
+    paths (a store, an output folder, the measured checkout) are written relative to the repository
+    (:func:`repo_relative`).
 
     Returns:
         The path written.
@@ -145,7 +179,7 @@ def write_results(path: str | os.PathLike, result: dict, note: str | None = None
         out["note"] = note
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(out, indent=1) + "\n")
+    path.write_text(json.dumps(repo_relative(out), indent=1) + "\n")
     return path
 
 

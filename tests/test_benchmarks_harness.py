@@ -52,7 +52,7 @@ def test_results_carry_machine_info_and_note(harness, tmp_path):
     assert d["figure"] == 1.0 and d["note"] == "shared machine" and d["command"].startswith("python3 ")
     assert set(d["machine"]) == MACHINE_KEYS
     assert d["machine"]["versions"]["numpy"] == __import__("numpy").__version__
-    assert Path(d["machine"]["code"]["path"]) == ROOT  # the measured code is this checkout's
+    assert d["machine"]["code"]["path"] == "."  # the measured code is this checkout (relative to the repository)
 
 
 def test_timed_takes_medians(harness):
@@ -76,3 +76,37 @@ def test_charts_rebuild_from_committed_results(tmp_path):
     for name in ("chart_render", "chart_training", "chart_scaleout", "chart_agreement"):
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000, (name, r.stdout)
     assert (tmp_path / "chart_render.csv").read_text().startswith("res,light,sampler,spp")
+
+
+def _strings(obj):
+    """Every string of a JSON value (keys and values)."""
+    if isinstance(obj, str):
+        yield obj
+    elif isinstance(obj, dict):
+        for k, v in obj.items():
+            yield k
+            yield from _strings(v)
+    elif isinstance(obj, list):
+        for v in obj:
+            yield from _strings(v)
+
+
+def test_committed_results_hold_no_absolute_path(harness):
+    """Results files record paths relative to the repository (#26): an absolute path means nothing elsewhere and
+    shows one machine's layout."""
+    found = [f"{p.relative_to(ROOT)}: {m}" for p in sorted((BENCH / "results").rglob("*.json"))
+             for s in _strings(json.loads(p.read_text())) for m in harness.ABSOLUTE_PATH.findall(s)]
+    assert not found, "\n".join(found[:20])
+
+
+def test_results_writer_makes_paths_relative(harness, tmp_path):
+    """The writer rewrites what a script hands it: a store under the repository, a temporary folder in a command
+    line and the measured checkout; URLs and units stay as they are."""
+    out = harness.write_results(tmp_path / "r.json", {
+        "store": str(harness.ROOT / "data" / "renders.zarr"), "url": "s3://bucket/a/b.zarr", "unit": "s/view",
+        "command": f"svtrain fit --out {tmp_path}/run --store ./data/x.zarr"})
+    res = json.loads(out.read_text())
+    assert res["store"] == "data/renders.zarr" and res["url"] == "s3://bucket/a/b.zarr" and res["unit"] == "s/view"
+    assert res["machine"]["code"]["path"] == "."
+    assert "--store ./data/x.zarr" in res["command"] and str(tmp_path) not in res["command"]
+    assert not [m for s in _strings(res) for m in harness.ABSOLUTE_PATH.findall(s)]
