@@ -1,5 +1,5 @@
-"""The ``svgen`` command line. Thin: each command lives in its own ``cmd_*.py`` module, loaded lazily,
-so ``svgen --help`` does not import mitsuba or dask."""
+"""The ``svgen`` command line. Thin: each command lives in its own ``pipeline/commands/<name>.py`` module, loaded
+lazily, so ``svgen --help`` does not import mitsuba or dask."""
 from __future__ import annotations
 
 import importlib

@@ -1,6 +1,6 @@
 """The commit protocol of stores on object storage (``s3://``): no rename, no flock, the same promises.
 
-A local store is built under ``<out>.partial``, guarded by ``flock`` and renamed into place (:mod:`storage.store`).
+A local store is built under ``<out>.partial``, guarded by ``flock`` and renamed into place (:mod:`storage.local`).
 An object store has neither rename (a copy of every object) nor locks, so the store is written in place and its
 state is told by objects:
 
@@ -57,7 +57,7 @@ def lock_ttl() -> float:
 
 
 class ObjectStoreWriter(S.StoreWriter):
-    """:class:`storage.store.StoreWriter` for an ``s3://`` store (made by ``StoreWriter(url, ...)``).
+    """:class:`storage.local.StoreWriter` for an ``s3://`` store (made by ``storage.store.open_writer(url, ...)``).
 
     ``final`` and ``partial`` are both the store's URL: the store is written in place and is incomplete until its
     ``complete`` attribute says otherwise.

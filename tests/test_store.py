@@ -113,3 +113,14 @@ def test_orphaned_zarr_chunk_temp_files_are_dropped_at_finalize(tmp_path):
     assert not any(f.endswith("0e0215fc14b04c1b97c11bb31a2f9130.partial") for f in files), files
     assert "notes.partial" in files
     assert open_store(out, "variants")["x"][:, 0, 0, 0].tolist() == [1] * 4 + [2] * 4
+
+
+def test_local_writer_refuses_an_object_url_and_the_door_picks_the_backend(tmp_path):
+    """storage.store.open_writer chooses the backend by the path; the local writer alone does not take s3:// (#26)."""
+    from storage.store import open_writer
+    from storage.store_object import ObjectStoreWriter
+
+    with pytest.raises(StoreError, match="open_writer"):
+        StoreWriter("s3://bucket/v.zarr", "variants", 4, 4, ARRAYS, {})
+    assert type(open_writer(tmp_path / "v.zarr", "variants", 4, 4, ARRAYS, {})) is StoreWriter
+    assert issubclass(ObjectStoreWriter, StoreWriter)

@@ -23,7 +23,7 @@ from test_render_resume import ARGS, N_SVBRDF, reference, variants  # noqa: F401
 
 from pipeline.config import SampleConfig
 from pipeline.sample import run_sample
-from storage.store import DONE_DIR, MANIFEST, StoreWriter, open_store
+from storage.store import DONE_DIR, MANIFEST, open_store, open_writer
 from svcore.config import build
 from svcore.errors import StoreError
 
@@ -167,11 +167,11 @@ def test_second_writer_is_refused(s3):
     from storage.svbrdf_store import array_specs
 
     args = (s3.url("busy.zarr"), "variants", 4, 2, array_specs("variants", 8, 2), {"x": 1})
-    with StoreWriter(*args) as w:
+    with open_writer(*args) as w:
         assert w.pending() == [0, 1]
         with pytest.raises(StoreError, match="another run is writing"):
-            StoreWriter(*args).__enter__()
-    with StoreWriter(*args) as w2:  # released on exit (nothing written: the prefix is cleared too)
+            open_writer(*args).__enter__()
+    with open_writer(*args) as w2:  # released on exit (nothing written: the prefix is cleared too)
         assert w2.pending() == [0, 1]
 
 
@@ -207,7 +207,7 @@ def test_faults_are_one_line(case, s3, svgen_cli, monkeypatch, tmp_path):
     else:  # a store whose run was killed: readers refuse it
         from storage.svbrdf_store import array_specs
 
-        w = StoreWriter(s3.url("v.zarr"), "variants", 2, 1, array_specs("variants", 8, 2), {"x": 1}).__enter__()
+        w = open_writer(s3.url("v.zarr"), "variants", 2, 1, array_specs("variants", 8, 2), {"x": 1}).__enter__()
         from storage.store import write_chunk
 
         write_chunk(w.partial, 0, 0, {"seed": np.zeros(1, np.uint64)})
