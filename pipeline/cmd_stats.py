@@ -40,6 +40,10 @@ def stats(stores, out, limit, stride, reference, splits, seed):
 
     from .stats import chart, store_stats, table
 
+    if reference is not None:
+        from .realism_profile import check_reference
+
+        check_reference(reference)
     results = [store_stats(s, limit, stride) for s in stores]
     md = table(results)
     click.echo(md)

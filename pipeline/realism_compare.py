@@ -127,6 +127,10 @@ def table(report: dict) -> str:
         unit = f" ({d['unit']})" if d["unit"] else ""
         lines.append(f"| {d['label']}{unit} | {d['measure']} | " + " | ".join(cells)
                      + f" | {floor:.3g} ± {d['noise_floor_std']:.2g} |")
+    other = [f"{s['name']} {s['size']}²" for s in report["stores"] if s["size"] != ref["size"]]
+    if other:
+        lines += ["", f"note: octave shares count cycles per map at each map's own size, and the reference is "
+                      f"{ref['size']}² while {', '.join(other)}: compare stores at the reference's size"]
     lines += ["", "| share of slope power, cycles per map | "
               + " | ".join(f"{lo}–{hi}" for lo, hi in report["octaves"]) + " |",
               "|---|" + "---:|" * len(report["octaves"])]

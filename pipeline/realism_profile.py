@@ -53,6 +53,25 @@ def material_stats(m) -> tuple[dict, dict, np.ndarray]:
             realism.octave_shares(m.normal))
 
 
+def check_reference(path) -> None:
+    """Refuse, in one line, a reference that is not a store of materials (before any other work is done).
+
+    Raises:
+        StoreError: missing, not a store (a folder of material files gets the import command to run first), or
+            holding fewer than 2 materials (no halves to measure a noise floor with).
+    """
+    try:
+        _, n, _ = maps_reader(path)
+    except StoreError as e:
+        if Path(str(path)).is_dir() and not (Path(str(path)) / "zarr.json").exists():
+            raise StoreError(f"reference {path} is not a store: import the folder first "
+                             f"(svgen import {path} REF.zarr) and pass REF.zarr") from e
+        raise StoreError(f"reference: {e}") from e
+    if n < 2:
+        raise StoreError(f"reference {path} holds {n} materials: at least 2 are needed (its halves give the "
+                         "noise floor)")
+
+
 def profile(path, limit: int | None = None, name: str | None = None) -> Profile:
     """The realism profile of a variants, blends, stress or renders store (base maps), over all its materials or an
     evenly spaced ``limit`` of them.
