@@ -14,16 +14,16 @@ from pipeline.stats import LUMA, store_stats
 from svcore.config import build
 
 
-#: material k's right half is tilted by TILTS[k] degrees about the y axis, its left half flat.
+#: material k's right three quarters are tilted by TILTS[k] degrees about the y axis, its left quarter flat.
 TILTS = (10.0, 20.0, 30.0)
 
 
 def tilted_normals(deg: float, s: int = 16) -> np.ndarray:
-    """(s, s, 3): left half (0, 0, 1), right half (sin t, 0, cos t)."""
+    """(s, s, 3): left quarter (0, 0, 1), the rest (sin t, 0, cos t)."""
     n = np.zeros((s, s, 3), np.float32)
     n[..., 2] = 1
     t = np.radians(deg)
-    n[:, s // 2:] = (np.sin(t), 0, np.cos(t))
+    n[:, s // 4:] = (np.sin(t), 0, np.cos(t))
     return n
 
 
@@ -64,11 +64,12 @@ def test_summary_matches_direct_computation(known):
     r = np.corrcoef([y.mean() for y in diff_y], [y.mean() for y in spec_y])[0, 1]
     assert s["summary"]["diffuse-specular r"] == pytest.approx(r, abs=1e-3)
     assert s["summary"]["roughness median"] == pytest.approx(0.5, abs=tol)
-    # per material the slope angle is 0 on one half and TILTS[k] on the other: std TILTS[k] / 2
-    assert s["summary"]["slope spread (deg)"] == pytest.approx(np.mean(TILTS) / 2, abs=0.02)
-    # 384 of the 768 pixels are flat, 128 at 10 degrees: the median lies halfway between 0 and 10
-    assert s["summary"]["slope median (deg)"] == pytest.approx(5.0, abs=0.02)
-    assert s["per_material"]["slope_mean_deg"] == pytest.approx([t / 2 for t in TILTS], abs=0.02)
+    # per material the slope angle is 0 on a quarter and TILTS[k] on the rest: mean 3/4 t, std t sqrt(3/16)
+    assert s["summary"]["slope spread (deg)"] == pytest.approx(np.mean(TILTS) * np.sqrt(3) / 4, abs=0.02)
+    assert s["per_material"]["slope_std_deg"] == pytest.approx([t * np.sqrt(3) / 4 for t in TILTS], abs=0.02)
+    assert s["per_material"]["slope_mean_deg"] == pytest.approx([t * 3 / 4 for t in TILTS], abs=0.02)
+    # 192 pixels at each of 0, 10, 20, 30 degrees: the median lies halfway between 10 and 20
+    assert s["summary"]["slope median (deg)"] == pytest.approx(15.0, abs=0.02)
     assert sum(s["maps"]["roughness"]["hist"][0]) == 3 * 16 * 16
 
 
@@ -96,14 +97,14 @@ def test_realism_profile_of_known_store(known):
     path, maps = known
     p = profile(path)
     assert len(p) == 3 and p.size == 16
-    # the slope magnitude is 0 on one half and tan(t) on the other: std / mean = 1
-    assert p.per_material["cv_relief"] == pytest.approx([1.0] * 3, abs=1e-3)
+    # the slope magnitude is 0 on a quarter and tan(t) on the rest: std / mean = (sqrt(3) / 4) / (3 / 4)
+    assert p.per_material["cv_relief"] == pytest.approx([1 / np.sqrt(3)] * 3, abs=1e-3)
     assert p.per_material["r_roughness_specular"] == pytest.approx([1.0] * 3, abs=1e-3)
     spec_y = [sp @ LUMA for _, sp in maps]
     assert p.per_material["cv_specular"] == pytest.approx([y.std() / y.mean() for y in spec_y], abs=1e-3)
     tilt = np.sort(p.pixels["normal_tilt_deg"], axis=1)
-    assert tilt[:, :128] == pytest.approx(0.0, abs=0.02)  # 16² pixels: half flat, half at TILTS[k]
-    assert tilt[:, 128:] == pytest.approx(np.repeat(np.array(TILTS)[:, None], 128, 1), abs=0.02)
+    assert tilt[:, :64] == pytest.approx(0.0, abs=0.02)  # 16² pixels: a quarter flat, the rest at TILTS[k]
+    assert tilt[:, 64:] == pytest.approx(np.repeat(np.array(TILTS)[:, None], 192, 1), abs=0.02)
 
 
 def test_cli_reference_distances(known, tmp_path, svgen_cli):
