@@ -145,3 +145,20 @@ def test_cli_reference_bad_input(known, tmp_path, svgen_cli):
         code, out = svgen_cli("stats", path, "--reference", ref)
         assert code == 2, out
         assert out.startswith("svgen: error: ") and says in out and out.count("\n") == 1, out
+
+
+def test_realism_of_blends_and_their_renders_store(tmp_path, svgen_cli):
+    """A renders store is profiled on its base maps: the same statistics as the blends store it rendered."""
+    from pipeline.realism_compare import distances
+    from pipeline.realism_profile import profile
+
+    for args in (("sample", tmp_path / "v.zarr", "--config-preset", "tiny", "--preset", "metal/brushed_steel",
+                  "--preset", "wood/oak_planks", "--per-preset", 2, "--size", 64),
+                 ("blend", tmp_path / "v.zarr", tmp_path / "b.zarr", "--count", 3),
+                 ("render", tmp_path / "b.zarr", tmp_path / "r.zarr", "--config-preset", "tiny", "--views", 1)):
+        code, out = svgen_cli(*args, "--workers", 0)
+        assert code == 0, out
+    b, r = profile(tmp_path / "b.zarr"), profile(tmp_path / "r.zarr")
+    assert (b.kind, r.kind, len(b), len(r)) == ("blends", "renders", 3, 3)
+    assert all(v == pytest.approx(0.0, abs=1e-9) for v in distances(b, r).values())
+    assert distances(b, profile(tmp_path / "v.zarr"))["roughness"] > 0  # blends are not their variants
