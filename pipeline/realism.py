@@ -5,8 +5,8 @@ returns numbers; :mod:`pipeline.realism_profile` gathers them over a store, :mod
 turns two gatherings into distances. docs/REALISM.md says what each measures and why it matters to flash capture.
 
 * pixel values (:func:`pixel_samples`): diffuse luminance Y, diffuse chroma C*ab (CIELAB, D65), specular F0
-  luminance, roughness and normal tilt arccos(n_z) in degrees, on a fixed grid of ``GRID``² pixels per material
-  whatever its size, so every material weighs the same in a store's pooled distribution;
+  luminance, roughness and normal tilt arccos(n_z) in degrees, on a fixed grid of ``GRID``² pixels spread over
+  each material whatever its size, so every material weighs the same in a store's pooled distribution;
 * normal relief by scale (:func:`octave_shares`): the share of slope power in octaves of cycles per map;
 * spatial variation (:func:`variation`): coefficient of variation std / mean of each map within the material;
 * cross-map correlation (:func:`correlations`): Pearson's r over the material's pixels of roughness and specular
@@ -98,7 +98,7 @@ def chroma(rgb: np.ndarray) -> np.ndarray:
 
 
 def pixel_samples(diffuse, specular, roughness, normal) -> dict[str, np.ndarray]:
-    """The values of :data:`PIXEL_STATS` on a ``GRID``² grid of pixels (every (N // GRID)-th pixel, or all).
+    """The values of :data:`PIXEL_STATS` on a ``GRID``² grid of pixels spread evenly over the map (all when N <= GRID).
 
     Args:
         diffuse, specular: (N, N, 3); roughness: (N, N, 1) or (N, N); normal: (N, N, 3).
@@ -106,14 +106,16 @@ def pixel_samples(diffuse, specular, roughness, normal) -> dict[str, np.ndarray]
     Returns:
         name -> (min(N, GRID)²,) float64.
     """
-    step = max(1, diffuse.shape[0] // GRID)
-    pick = (slice(None, step * GRID, step), slice(None, step * GRID, step))
+    n = diffuse.shape[0]
+    g = min(n, GRID)
+    rows = np.arange(g) * n // g  # evenly spread over the whole map (every 4th pixel at 256²)
+    pick = np.ix_(rows, rows)
     d = np.asarray(diffuse, np.float64)[pick].reshape(-1, 3)
-    n = np.asarray(normal, np.float64)[pick].reshape(-1, 3)
+    nz = np.asarray(normal, np.float64)[pick][..., 2].reshape(-1)
     return {"diffuse_luminance": d @ LUMA, "diffuse_chroma": chroma(d),
             "specular_f0": np.asarray(specular, np.float64)[pick].reshape(-1, 3) @ LUMA,
             "roughness": np.asarray(roughness, np.float64)[pick].reshape(-1),
-            "normal_tilt_deg": np.degrees(np.arccos(np.clip(n[:, 2], -1, 1)))}
+            "normal_tilt_deg": np.degrees(np.arccos(np.clip(nz, -1, 1)))}
 
 
 def cv(x: np.ndarray) -> float:

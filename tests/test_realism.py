@@ -110,6 +110,17 @@ def test_pixel_samples_known_values():
     np.testing.assert_allclose(realism.pixel_samples(red, grey, grey[..., :1], n)["diffuse_chroma"], 104.55, atol=0.05)
 
 
+def test_pixel_grid_spans_the_whole_map():
+    """At 100² (not a multiple of the grid) the 64² grid still covers both halves of a half-0, half-1 map."""
+    s = 100
+    r = np.zeros((s, s, 1))
+    r[:, s // 2:] = 1.0
+    flat = np.zeros((s, s, 3))
+    flat[..., 2] = 1
+    p = realism.pixel_samples(np.zeros((s, s, 3)), np.zeros((s, s, 3)), r, flat)
+    assert p["roughness"].mean() == pytest.approx(0.5)
+
+
 def profile_of(pix: np.ndarray, per: np.ndarray, octs: np.ndarray, name: str = "p") -> Profile:
     """A profile with every pixel statistic equal to ``pix`` (M, P), every per-material one ``per`` (M,)."""
     return Profile(name, "variants", 256, {k: pix for k in realism.PIXEL_STATS},
