@@ -55,10 +55,10 @@ def octave_shares(normal: np.ndarray) -> np.ndarray:
     """Share of the slope field's power in each octave of :data:`OCTAVES`.
 
     Frequencies are counted in cycles per map at the map's own size (a 256² map resolves up to 128 cycles, a 64²
-    one up to 32, so compare stores at the same size; the reference is imported at 256²). The power of both slope
-    components |FFT(dh/dx)|² + |FFT(dh/dy)|² is binned by radial frequency sqrt(fx² + fy²); the mean slope (0 cycles)
-    and frequencies above 128 (the corners of a 256² spectrum, everything beyond at 512²) are left out, so the
-    shares of the octaves sum to 1 (all 0 for a flat map).
+    one up to 32, so compare stores at the same size; the reference is imported at 256²). The power of both
+    slope components |FFT(dh/dx)|² + |FFT(dh/dy)|² is binned by radial frequency sqrt(fx² + fy²); the mean slope
+    (0 cycles) and frequencies above 128 (the corners of a 256² spectrum, everything beyond at 512²) are left out,
+    so the shares of the octaves sum to 1 (all 0 for a flat map).
 
     Args:
         normal: (N, N, 3) unit normals.
