@@ -183,6 +183,32 @@ def write_results(path: str | os.PathLike, result: dict, note: str | None = None
     return path
 
 
+def update_results(path: str | os.PathLike, key: str, result: dict, note: str | None = None) -> Path:
+    """Set ``key`` of a results JSON that several scripts share (read-modify-write: other keys are kept).
+
+    ``result`` gets ``command``, ``machine`` (with the measured checkout's path relative to the repository, so
+    the file holds no absolute path) and ``note`` like :func:`write_results`; keys it already has win.
+
+    Returns:
+        The path written.
+    """
+    path = Path(path)
+    data = json.loads(path.read_text()) if path.exists() else {}
+    entry = {**result}
+    entry.setdefault("command", command())
+    if "machine" not in entry:
+        entry["machine"] = machine_info()
+        where = entry["machine"]["code"].get("path")
+        if where is not None:
+            entry["machine"]["code"]["path"] = os.path.relpath(where, ROOT)
+    if note is not None:
+        entry["note"] = note
+    data[key] = entry
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1) + "\n")
+    return path
+
+
 def write_csv(path: str | os.PathLike, rows: Iterable[dict], columns: list[str] | None = None) -> Path:
     """Write dict rows as CSV with a header (``columns``, default the first row's keys, in order)."""
     rows = list(rows)

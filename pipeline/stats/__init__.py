@@ -30,11 +30,12 @@ LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
 KINDS = ("variants", "blends", "stress", "renders")
 
 
-def _maps_reader(path):
+def maps_reader(path):
+    """(kind, number of materials, i -> SVBRDF maps) of a variants, blends, stress or renders store (base maps)."""
     g = open_store(path, KINDS)
     kind = dict(g.attrs)["svgen"]["kind"]
     if kind == "renders":
-        from .render.store import RendersReader
+        from ..render.store import RendersReader
 
         r = RendersReader(path)
         return kind, r.n_svbrdf, r.base_maps
@@ -50,7 +51,7 @@ def store_stats(path, limit: int | None = None, stride: int = 4) -> dict:
     Returns:
         {"store", "kind", "materials", "maps": {map: {"mean", "median", "hist"}}, "summary": {name: value}}.
     """
-    kind, n, maps_of = _maps_reader(path)
+    kind, n, maps_of = maps_reader(path)
     if n == 0:
         raise StoreError(f"{path} holds no materials")
     idx = np.unique(np.linspace(0, n - 1, min(n, limit or n)).round().astype(int))

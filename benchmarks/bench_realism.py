@@ -1,0 +1,77 @@
+"""How real is the data: every realism statistic's distance from today's default library to real CC0 materials.
+
+The library: a variants store sampled with the default config (``--per-preset`` variants of every base material
+at ``--size``², seed 0). The reference: the folder of real materials (default ``../shared/materials-cc0`` beside the
+repository root) imported with `svgen import` at ``--size``², each whole tile area-averaged down (import has no
+crop window yet). Both go through :func:`pipeline.stats.compare.compare`, which is what
+``svgen stats LIBRARY --reference REFERENCE`` prints: each statistic's distance (1-D Wasserstein, L1 of octave
+shares) beside the reference's split-half noise floor (``--splits`` seeded halvings averaged).
+
+Writes key "statistics" of benchmarks/results/realism.json (other keys of that file, e.g. "sim_to_real", are kept)
+and the chart docs/img/chart_realism.png. A missing reference folder is refused in one line (exit 2).
+
+Usage: python3 benchmarks/bench_realism.py [REFERENCE_DIR] [--per-preset 4] [--size 256] [--splits 8] [--seed 0]
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+from harness import IMG, RESULTS, ROOT, parser, timed, update_results
+
+DEFAULT_REFERENCE = ROOT.parent / "shared" / "materials-cc0"
+LIBRARY = "svgen default library"
+
+
+def main(argv=None) -> int:
+    ap = parser(__doc__)
+    ap.add_argument("reference", nargs="?", default=str(DEFAULT_REFERENCE),
+                    help="folder of real material folders [default: ../shared/materials-cc0 beside the repository]")
+    ap.add_argument("--per-preset", type=int, default=4, help="variants of every base material in the library")
+    ap.add_argument("--size", type=int, default=256, help="map side of the library and of the imported reference")
+    ap.add_argument("--splits", type=int, default=8, help="halvings of the reference averaged into the noise floor")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the halvings")
+    ap.add_argument("--out", default=str(RESULTS / "realism.json"))
+    ap.add_argument("--chart", default=str(IMG / "chart_realism.png"))
+    a = ap.parse_args(argv)
+    ref_dir = Path(a.reference)
+    if not ref_dir.is_dir():
+        print(f"bench_realism: no reference folder at {ref_dir} (pass the folder of real materials)", file=sys.stderr)
+        return 2
+
+    from pipeline.config import ImportConfig, SampleConfig
+    from pipeline.importer.job import run_import
+    from pipeline.stats.realism_chart import chart
+    from pipeline.stats.compare import compare, table
+    from pipeline.stats.profile import profile
+    from pipeline.sample import run_sample
+    from svcore.config import build
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench-realism-"))
+    try:
+        ref_store, mats = run_import(tmp / "reference.zarr", build(ImportConfig, sources=(str(ref_dir),),
+                                                                   size=a.size), workers=0)
+        lib = run_sample(tmp / "library.zarr", build(SampleConfig, per_preset=a.per_preset, size=a.size, seed=0),
+                         workers=0)
+        t = timed(lambda: compare([profile(lib, name=LIBRARY)], profile(ref_store, name=ref_dir.name),
+                                  a.splits, a.seed))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    report = t.result
+    res = {"reference_folder": os.path.relpath(ref_dir.resolve(), ROOT),
+           "reference_import": {"size": a.size, "window": "whole tile, centre-cropped to a square and area-averaged",
+                                "materials": len(mats)},
+           "library": {"config": "default", "per_preset": a.per_preset, "size": a.size, "seed": 0},
+           "stats_wall_s": round(t.wall_s, 1), "report": report}
+    update_results(a.out, "statistics", res, note=a.note)
+    chart(report, a.chart)  # benchmarks/charts_realism.py redraws it from the JSON
+    print(table(report))
+    print(f"wrote {a.out} (key statistics) and {a.chart}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,68 @@
+"""benchmarks/bench_realism.py: refuses a missing reference folder in one line, keeps the other keys of the results
+file it shares, and on the real reference folder (skipped, saying so, when it is absent) writes every statistic."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "benchmarks" / "bench_realism.py"
+
+
+@pytest.fixture(scope="module")
+def reference_dir() -> Path:
+    """The shared real materials: SVGEN_REFERENCE_DIR, else ../shared/materials-cc0 beside the checkout root."""
+    d = Path(os.environ.get("SVGEN_REFERENCE_DIR") or ROOT.parent / "shared" / "materials-cc0")
+    if not d.is_dir():
+        pytest.skip(f"no reference materials at {d} (set SVGEN_REFERENCE_DIR to the materials-cc0 folder)")
+    return d
+
+
+def bench(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(SCRIPT), *map(str, args)], capture_output=True, text=True,
+                          timeout=600)
+
+
+def test_missing_reference_folder_is_one_line(tmp_path):
+    r = bench(tmp_path / "absent", "--out", tmp_path / "r.json")
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.count("\n") == 1 and "no reference folder at" in r.stderr
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_update_results_keeps_other_keys(tmp_path):
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        from harness import update_results
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    p = tmp_path / "realism.json"
+    p.write_text(json.dumps({"sim_to_real": {"x": 1}}))
+    update_results(p, "statistics", {"y": 2}, note="n")
+    d = json.loads(p.read_text())
+    assert d["sim_to_real"] == {"x": 1} and d["statistics"]["y"] == 2 and d["statistics"]["note"] == "n"
+    assert not Path(d["statistics"]["machine"]["code"]["path"]).is_absolute()
+
+
+def test_bench_on_the_reference(reference_dir, tmp_path):
+    out = tmp_path / "realism.json"
+    out.write_text(json.dumps({"sim_to_real": {"kept": True}}))
+    r = bench(reference_dir, "--per-preset", 1, "--size", 64, "--splits", 2, "--out", out,
+              "--chart", tmp_path / "c.png")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(out.read_text())
+    assert d["sim_to_real"] == {"kept": True}
+    rep = d["statistics"]["report"]
+    n = sum(1 for p in reference_dir.iterdir() if p.is_dir())
+    assert rep["reference"]["materials"] == n and rep["stores"][0]["materials"] > 0
+    for k, v in rep["distances"].items():
+        assert math.isfinite(v["noise_floor"]) and all(math.isfinite(x) for x in v["to_reference"].values()), k
+    assert sum(rep["octave_shares"][rep["reference"]["name"]]) == pytest.approx(1.0)
+    assert "/" not in d["statistics"]["reference_folder"][:1]  # relative, no absolute path in results
+    assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
