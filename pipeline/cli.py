@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "import": "pipeline.cmd_import:import_",
     "stats": "pipeline.cmd_stats:stats",
     "card": "pipeline.cmd_card:card",
+    "gallery": "pipeline.cmd_gallery:gallery",
 }
 
 
