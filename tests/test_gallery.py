@@ -101,8 +101,10 @@ def _check_drawn(shot: np.ndarray, page: Path, wanted: str = "") -> int:
                     x0, y0, x1, y1 = layout.thumb_box(col_x, col_w, pos, *divmod(k, PER_ROW), s["views"], y)
                     got = shot[y0:y1, x0:x1]
                     want = np.asarray(Image.open(page.parent / src).convert("RGB"), np.float64)
-                    assert np.abs(got - want).mean() < 1.5, f"{s['store']} #{card['index']} {src}: not drawn at " \
-                                                            f"({x0}, {y0}) (mean diff {np.abs(got - want).mean():.1f})"
+                    # Chromium draws an untagged PNG at 1:1 unchanged here (0 diff); 2 levels leave room for a
+                    # colour-managed build, far below what another thumbnail or a misplaced box gives
+                    assert np.abs(got - want).max() <= 2, f"{s['store']} #{card['index']} {src}: not drawn at " \
+                                                          f"({x0}, {y0}) (max diff {np.abs(got - want).max():.0f})"
                     assert np.abs(got - 255).mean() > 10, f"{src} is blank (white as the card)"
                 checked += 1
             if len(visible) % layout.per_row(col_w):  # the next place in the last row: background only
