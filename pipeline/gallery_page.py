@@ -198,8 +198,8 @@ def _card(c: Card, layout: Layout) -> str:
 def _section(s: Section, seed: int, max_n: int, layout: Layout) -> str:
     how = (f"a sample of {len(s.indices)} of {s.n} SVBRDFs (--max {max_n}, --seed {seed}; indices below)"
            if s.sampled else f"all {s.n} SVBRDFs")
-    role = "reference" if s.reference else "procedural"
-    head = (f'<div class="head"><h2>{_e(s.name)}</h2>{role} {_e(s.kind)} store: {how}; '
+    role = "reference " if s.reference else ""
+    head = (f'<div class="head"><h2>{_e(s.name)}</h2>{role}{_e(s.kind)} store: {how}; '
             f'<span class="shown"></span></div>')
     cards = "".join(_card(c, layout) for c in s.cards)
     idx = ", ".join(map(str, s.indices))
