@@ -12,7 +12,9 @@ downsampled in its linear values first (area average), then encoded.
 
 A store larger than ``max_n`` is shown as a sample of ``max_n`` SVBRDFs drawn with the stated seed (stream
 ``gallery.sample`` of :mod:`svcore.seeds`); the indices are on the page and in ``gallery.json``. The store is read
-in blocks of consecutive shown samples of at most :data:`BLOCK_BYTES`, so memory does not grow with the store.
+in blocks of at most :data:`BLOCK_BYTES`, so memory does not grow with the store: a block spans shown samples
+that follow each other, or lie less than :data:`GAP_BYTES` of samples apart (reading a few unshown small samples
+costs less than another read call; at 256² no gap is bridged).
 """
 from __future__ import annotations
 
@@ -36,6 +38,8 @@ from .store import is_object_url, open_store, read_region, refuse_inside
 KINDS = ("variants", "blends", "stress", "renders")
 #: raw bytes of one read block at most (on-disk dtypes; decoded float maps of one sample exist at a time)
 BLOCK_BYTES = 64 << 20
+#: unshown samples a block may read between two shown ones, in raw bytes at most
+GAP_BYTES = 1 << 20
 #: the file that marks a folder as a gallery svgen wrote (what --force may replace)
 MARKER = "gallery.json"
 
@@ -52,11 +56,12 @@ def pick(n: int, max_n: int, seed: int) -> tuple[list[int], bool]:
     return sorted(int(i) for i in idx), True
 
 
-def blocks(indices: list[int], per_block: int):
-    """Runs of consecutive indices, each at most ``per_block`` long: one read each."""
+def blocks(indices: list[int], per_block: int, max_gap: int = 0):
+    """Runs of ascending indices to read at once: each spans at most ``per_block`` samples (first to last), and
+    skips at most ``max_gap`` unshown samples between two of its indices."""
     run: list[int] = []
     for i in indices:
-        if run and (i != run[-1] + 1 or len(run) >= per_block):
+        if run and (i - run[-1] - 1 > max_gap or i - run[0] >= per_block):
             yield run
             run = []
         run.append(i)
@@ -105,7 +110,7 @@ class _Source:
         self._inputs: dict[int, object] = {}
 
     def read(self, run: list[int]) -> dict[str, np.ndarray]:
-        """Raw arrays of samples ``run`` (consecutive): maps, images, and the per-sample facts."""
+        """Raw arrays of samples ``run[0]`` .. ``run[-1]``: maps, images, and the per-sample facts."""
         a, b = run[0], run[-1] + 1
         names = list(MAP_NAMES) + [k for k in ("preset", "params", "seed", "alpha", "parents", "category", "source",
                                                 "source_seed", "input") if k in self.group]
@@ -196,10 +201,12 @@ def _section(src: _Source, k: int, reference: bool, out: Path, max_n: int, seed:
     (out / rel).mkdir(parents=True)
     cards = []
     per_block = max(1, BLOCK_BYTES // src.sample_bytes)
+    max_gap = GAP_BYTES // src.sample_bytes
     with progress(len(indices), f"gallery {Path(str(path)).name}", unit="SVBRDF") as bar:
-        for run in blocks(indices, per_block):
+        for run in blocks(indices, per_block, max_gap):
             d = src.read(run)
-            for j, i in enumerate(run):
+            for i in run:
+                j = i - run[0]  # row of sample i in the block
                 m = decode_maps({name: d[name][j] for name in MAP_NAMES})
                 maps = {}
                 for name in MAP_ORDER:
