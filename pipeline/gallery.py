@@ -42,6 +42,8 @@ BLOCK_BYTES = 64 << 20
 GAP_BYTES = 1 << 20
 #: the file that marks a folder as a gallery svgen wrote (what --force may replace)
 MARKER = "gallery.json"
+#: the file that marks a partial folder as this command's (what a rerun may delete)
+PARTIAL_MARKER = ".svgen-gallery-partial"
 
 
 def pick(n: int, max_n: int, seed: int) -> tuple[list[int], bool]:
@@ -92,6 +94,12 @@ def _fmt(v: float) -> str:
     return f"{v:.3g}"
 
 
+def _param_text(keys: list[str], values) -> str | None:
+    """``name=value, ...`` of a preset's parameters (NaN padding dropped); None when there are none."""
+    vals = np.asarray(values, np.float64)[:len(keys)]
+    return ", ".join(f"{k}={_fmt(v)}" for k, v in zip(keys, vals) if np.isfinite(v)) or None
+
+
 class _Source:
     """Reads the shown SVBRDFs of one store in blocks and says what each is."""
 
@@ -131,11 +139,6 @@ class _Source:
             out.append(f"licence: {rec['licence']}")
         return out
 
-    def _params(self, name: str, values) -> str | None:
-        keys = self.param_names.get(name) or []
-        vals = [v for v in np.asarray(values, np.float64)[:len(keys)]]
-        return ", ".join(f"{k}={_fmt(v)}" for k, v in zip(keys, vals) if np.isfinite(v)) or None
-
     def _input_params(self, d: dict, j: int) -> str | None:
         """A renders store's SVBRDF's parameters, from its input store when that is a local store still there."""
         k = int(d["input"][j])
@@ -155,11 +158,10 @@ class _Source:
         i = int(d["source"][j])
         names = self._names(d["preset"][j])
         row = read_region(st.group, "params", i, i + 1)[0]
-        keys = st.attrs.get("param_names", {}).get(names[0], []) if names else []
-        return ", ".join(f"{n}={_fmt(v)}" for n, v in zip(keys, row[:len(keys)]) if np.isfinite(v)) or None
+        return _param_text(st.attrs.get("param_names", {}).get(names[0], []) if names else [], row)
 
-    def describe(self, d: dict, j: int, i: int) -> tuple[str, list[str], list[str]]:
-        """(title, classes, lines) of sample ``i`` (row ``j`` of block ``d``)."""
+    def describe(self, d: dict, j: int) -> tuple[str, list[str], list[str]]:
+        """(title, classes, lines) of the sample in row ``j`` of block ``d``."""
         names = self._names(d["preset"][j])
         classes = sorted({n.split("/")[0] for n in names})
         lines: list[str] = []
@@ -172,7 +174,7 @@ class _Source:
         for n in names:
             lines += self._material_lines(n)
         if self.kind == "variants" and "params" in d and names:
-            p = self._params(names[0], d["params"][j])
+            p = _param_text(self.param_names.get(names[0]) or [], d["params"][j])
             if p:
                 lines.append(p)
         if self.kind == "renders":
@@ -218,7 +220,7 @@ def _section(src: _Source, k: int, reference: bool, out: Path, max_n: int, seed:
                     f = rel / f"{i:07d}_view{v}.png"
                     write_png(out / f, display("view", decode_srgb8(d["image"][j, v]), thumb))
                     vs.append(f.as_posix())
-                title, classes, lines = src.describe(d, j, i)
+                title, classes, lines = src.describe(d, j)
                 cards.append(Card(i, title, classes, lines, maps, vs))
                 bar.update(1)
             del d
@@ -235,9 +237,12 @@ def _prepare_out(out: Path, inputs: list, force: bool) -> Path:
             raise StoreError(f"output {out} exists and is not a gallery (no {MARKER}); --force replaces only a "
                              "gallery svgen wrote: delete it yourself or choose another path")
     tmp = out.with_name(out.name + ".partial")
-    if tmp.exists():  # an interrupted gallery run: only ever written by this function
-        shutil.rmtree(tmp)
+    if tmp.exists():
+        if not (tmp / PARTIAL_MARKER).is_file():
+            raise StoreError(f"{tmp} exists and is not an interrupted gallery; delete it or choose another --out")
+        shutil.rmtree(tmp)  # an interrupted run of this command: start again
     tmp.mkdir(parents=True)
+    (tmp / PARTIAL_MARKER).touch()
     return tmp
 
 
@@ -285,6 +290,7 @@ def gallery(stores: list, out, references: list | None = None, max_n: int = 200,
                         "indices": s.indices} for s in sections]}
     (tmp / "index.html").write_text(page(sections, seed, max_n, layout, meta), encoding="utf-8")
     (tmp / MARKER).write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
+    (tmp / PARTIAL_MARKER).unlink()
     if out.exists():  # force, checked above: a gallery svgen wrote
         shutil.rmtree(out)
     os.replace(tmp, out)

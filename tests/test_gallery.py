@@ -223,3 +223,14 @@ def test_existing_output_refused_unless_force_on_a_gallery(stores, svgen_cli, tm
     assert json.loads((tmp_path / "g" / G.MARKER).read_text())["max"] == 2
     assert not (tmp_path / "g.partial").exists()
     _one_line(*svgen_cli("gallery", stores / "v.zarr", "--out", stores / "v.zarr" / "g"), "lies inside input")
+
+
+def test_an_interrupted_gallery_is_redone_a_foreign_partial_kept(stores, svgen_cli, tmp_path):
+    (tmp_path / "g.partial" / "thumbs").mkdir(parents=True)  # as a killed run leaves it
+    (tmp_path / "g.partial" / G.PARTIAL_MARKER).touch()
+    assert svgen_cli("gallery", stores / "v.zarr", "--out", tmp_path / "g")[0] == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g"] and not (tmp_path / "g" / G.PARTIAL_MARKER).exists()
+    (tmp_path / "h.partial").mkdir()
+    (tmp_path / "h.partial" / "notes.txt").write_text("keep")
+    _one_line(*svgen_cli("gallery", stores / "v.zarr", "--out", tmp_path / "h"), "is not an interrupted gallery")
+    assert [p.name for p in (tmp_path / "h.partial").iterdir()] == ["notes.txt"]
