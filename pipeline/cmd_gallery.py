@@ -15,7 +15,7 @@ from .cli_options import storage_option
               help="A reference store (e.g. `svgen import` of real materials), shown beside the others; repeatable.")
 @click.option("--max", "max_n", type=click.IntRange(min=1), default=200, show_default=True,
               help="At most N SVBRDFs per store; a larger store is shown as a seeded sample of N.")
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+@click.option("--seed", type=click.IntRange(min=0, max=2**64 - 1), default=0, show_default=True,
               help="Seed of that sample (the indices are listed on the page and in gallery.json).")
 @click.option("--views", type=click.IntRange(min=1, max=4), default=3, show_default=True,
               help="Views per SVBRDF of a renders store.")
