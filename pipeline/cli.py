@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "import": "pipeline.commands.import_:import_",
     "stats": "pipeline.commands.stats:stats",
     "card": "pipeline.commands.card:card",
+    "gallery": "pipeline.commands.gallery:gallery",
 }
 
 

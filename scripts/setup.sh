@@ -6,13 +6,18 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 have_llvm() { ls /usr/lib/llvm-1[6-9]/lib/libLLVM*.so* /usr/lib/llvm-2[0-9]/lib/libLLVM*.so* >/dev/null 2>&1; }
-if ! have_llvm; then
+# headless Chromium: tests/test_gallery.py opens `svgen gallery`'s page in it (the tests skip without it)
+have_chromium() { command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1; }
+if ! have_llvm || ! have_chromium; then
   if command -v apt-get >/dev/null 2>&1; then
     SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
     $SUDO apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libllvm19
-  else
+    have_llvm || DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libllvm19
+    have_chromium || DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium
+  elif ! have_llvm; then
     echo "svgen setup: install libLLVM >= 16 (e.g. libllvm19) with your package manager" >&2; exit 1
+  else
+    echo "svgen setup: no chromium (optional: the gallery's browser test skips without it)" >&2
   fi
 fi
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 # Purpose tags keep the streams of different stages apart even with equal master seeds.
-PURPOSES = {"sample": 1, "blend": 2, "render": 3, "train": 4, "eval": 5, "stress": 6}
+PURPOSES = {"sample": 1, "blend": 2, "render": 3, "train": 4, "eval": 5, "stress": 6, "gallery": 7}
 
 #: Named streams inside a purpose: name -> (purpose, first spawn key). The numbers are part of the bytes of
 #: every synthetic sample and trained model (tests/data/same_bytes.json holds them): never renumber one; a new
@@ -29,6 +29,7 @@ STREAMS: dict[str, tuple[str, int]] = {
     "train.rank_dropout": ("train", 104),  # dropout of data-parallel rank r >= 1 (rank 0 keeps train.dropout)
     "split.holdout": ("eval", 0),  # which source presets are held out
     "realism.split_half": ("eval", 21),  # split s of a reference's materials into halves (stats noise floor)
+    "gallery.sample": ("gallery", 0),  # which SVBRDFs of a store larger than --max the gallery shows
 }
 
 
