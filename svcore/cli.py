@@ -74,6 +74,9 @@ def _run_cli(group: click.Group, prog: str, argv=None) -> int:
         return 130
     except click.exceptions.Exit as e:
         return e.exit_code
+    except click.exceptions.NoArgsIsHelpError as e:  # a bare `svgen`: the help asked for, not a usage error
+        click.echo(e.ctx.get_help() if e.ctx is not None else group.get_help(click.Context(group, info_name=prog)))
+        return 0
     except click.ClickException as e:
         click.echo(f"{prog}: error: {one_line(e.format_message())}", err=True)
         return e.exit_code or 2

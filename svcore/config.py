@@ -190,7 +190,8 @@ def _describe(err: dict, section: str) -> str:
         return f"config key {key!r} is a section: give its keys as a mapping, got {val!r}"
     msg = f"{key} must be {expect}" if expect else f"{key}: {err['msg']}"
     hint = ""
-    if isinstance(val, str) and t in ("int_type", "float_type", "bool_type"):
+    if isinstance(val, str) and t in ("int_type", "float_type", "bool_type") and \
+            not isinstance(parse_value(val), str):  # only a value that unquoted would be a number or a boolean
         hint = " (a quoted value is a string: write it without quotes)"
     return f"{msg}, got {val!r}{hint}"
 

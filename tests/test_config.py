@@ -154,3 +154,22 @@ def test_progress_is_silent_when_stderr_is_not_a_terminal(monkeypatch):
     assert progress(3, "x").disable
     monkeypatch.setenv("SVGEN_PROGRESS", "1")
     assert not progress(3, "x").disable
+
+
+@pytest.mark.parametrize("group, prog", [(cli, "svgen"), (svtrain, "svtrain")])
+def test_bare_command_prints_the_normal_help_and_exits_0(group, prog):
+    """Issue #25 item 5: no arguments is a request for help (click's no_args_is_help), not a one-line error."""
+    code, out, err = call(group, prog, [])
+    assert code == 0 and err == "", err
+    assert out.startswith(f"Usage: {prog} [OPTIONS] COMMAND") and "\nCommands:\n" in out and out.count("\n") > 8
+
+
+@pytest.mark.parametrize("value, words, hint", [("abc", "train.optim.lr must be a number, got 'abc'", False),
+                                                ('"1e-3"', "train.optim.lr must be a number, got '1e-3'", True),
+                                                ("yes please", "train.optim.compile_loss must be true or false", False)])
+def test_a_wrong_type_names_the_expected_type_and_mentions_quotes_only_when_quoted(value, words, hint):
+    """Issue #25 item 6: `--set optim.lr=abc` quoted nothing; the quoting hint is for a quoted number only."""
+    key = "optim.compile_loss" if "compile" in words else "optim.lr"
+    code, _, err = call(svtrain, "svtrain", ["fit", "--set", f"{key}={value}", "--print-config"])
+    assert code == 2 and words in err and err.count("\n") == 1, err
+    assert ("quoted" in err) == hint, err
