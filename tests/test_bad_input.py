@@ -239,6 +239,15 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
      "refused (loading it could run"),
     ("fit --resume: checkpoint with a pickled object", T, ["fit", "--out", "{d}/evil_run", *SMALL],
      "refused (loading it could run"),
+    # issue #25 item 7: every bound is in the config field or the option's type, so it is named before any work
+    ("size below the generators' range, --print-config", S, ["sample", "--size", "63", "--print-config"],
+     "sample.size must be >= 64, got 63"),
+    ("stress size above the generators' range", S, ["stress", "{d}/o.zarr", "--set", "size=1025"],
+     "stress.size must be <= 1024, got 1025"),
+    ("eval: negative --limit", T, ["eval", "--checkpoint", "{d}/run", "--limit", "-5", "--out", "{d}/o.zarr"],
+     "Invalid value for '--limit': -5 is not in the range x>=1"),
+    ("predict: zero --batch", T, ["predict", "{d}/ok.png", "--checkpoint", "{d}/run", "--batch", "0", "--out",
+                                 "{d}/o.zarr"], "Invalid value for '--batch': 0 is not in the range x>=1"),
     ("predict: unknown input space", T, ["predict", "{d}/thin.png", "--checkpoint", "{d}/run", "--input-space",
                                          "gamma", "--out", "{d}/o.zarr"], "Invalid value"),
 ]
