@@ -173,3 +173,24 @@ def test_a_wrong_type_names_the_expected_type_and_mentions_quotes_only_when_quot
     code, _, err = call(svtrain, "svtrain", ["fit", "--set", f"{key}={value}", "--print-config"])
     assert code == 2 and words in err and err.count("\n") == 1, err
     assert ("quoted" in err) == hint, err
+
+
+#: a progress bar on a pseudo-terminal (on by tqdm's own detection), in a fresh process: tqdm reads its TQDM_*
+#: variables when it is imported
+_BAR_ON_A_TTY = ("import os, sys; m, s = os.openpty(); sys.stderr = os.fdopen(s, 'w'); "
+                 "from svcore.progress import progress; b = progress(3, 'x'); "
+                 "print(bool(b.disable), getattr(b, 'smoothing', ''), getattr(b, 'mininterval', ''))")
+
+
+@pytest.mark.parametrize("env, shown", [({}, "False 0.1 0.1"), ({"TQDM_DISABLE": "1"}, "True"),
+                                        ({"TQDM_DISABLE": "1", "SVGEN_PROGRESS": "1"}, "True"),
+                                        ({"TQDM_SMOOTHING": "0.5", "TQDM_MININTERVAL": "2"}, "False 0.5 2.0"),
+                                        ({"SVGEN_NO_PROGRESS": "1"}, "True")])
+def test_progress_honours_tqdms_own_environment_variables(env, shown):
+    """Issue #25 item 9: TQDM_DISABLE=1 (and any TQDM_<argument>) wins; the SVGEN switches stay as aliases."""
+    import os
+
+    base = {k: v for k, v in os.environ.items() if not k.startswith(("TQDM_", "SVGEN_NO_PROGRESS", "SVGEN_PROGRESS"))}
+    r = subprocess.run([sys.executable, "-c", _BAR_ON_A_TTY], capture_output=True, text=True, env={**base, **env})
+    assert r.returncode == 0, r.stderr[-300:]
+    assert r.stdout.startswith(shown), (env, r.stdout)
