@@ -27,23 +27,33 @@ def one_line(msg: object) -> str:
 
 
 def version() -> str:
-    """``git describe`` of the source tree when it is a git checkout, else the installed package version
-    (:func:`svcore.versions.svgen_version`)."""
+    """The package version with the code's digest (:func:`svcore.versions.svgen_version`), what results record."""
     from .versions import svgen_version
 
     return svgen_version()
 
 
+def version_detail() -> str:
+    """What ``--version`` adds in brackets: the source digest and, in a git checkout, ``git describe`` (whose
+    "-dirty" also counts edited data files such as dvc.lock, so it is a detail, never the version)."""
+    from .versions import SHORT_DIGEST, code_digest, git_description
+
+    git = git_description()
+    return f"code {code_digest()[:SHORT_DIGEST]}" + (f", git {git}" if git else "")
+
+
+class _VersionMessage(str):
+    """click's version message, formatted when ``--version`` is given (not at import: git runs only then)."""
+
+    def __mod__(self, values):
+        return f"{values['prog']} {values['version']} ({version_detail()})"
+
+
 def version_option(prog: str):
-    """``--version``: print ``PROG VERSION`` (see :func:`version`) and exit 0."""
-
-    def show(ctx, _param, value):
-        if value and not ctx.resilient_parsing:
-            click.echo(f"{prog} {version()}")
-            ctx.exit(0)
-
-    return click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=show,
-                        help="Print the version (git describe of the source, else the package version) and exit.")
+    """``--version``: ``PROG PACKAGE_VERSION (code DIGEST, git DESCRIBE)`` and exit 0; the package version from its
+    metadata (click.version_option)."""
+    return click.version_option(package_name="svgen", prog_name=prog, message=_VersionMessage("%(prog)s %(version)s"),
+                                help="Print the package version (with the source digest and git describe) and exit.")
 
 
 def run_cli(group: click.Group, prog: str, argv=None) -> int:

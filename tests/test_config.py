@@ -131,8 +131,46 @@ def test_config_names_agree_with_the_scene_registries():
 
 @pytest.mark.parametrize("group, prog", [(cli, "svgen"), (svtrain, "svtrain")])
 def test_version(group, prog):
+    """Issue #25 item 3: the package version from its metadata, the code digest and git describe as detail."""
+    import importlib.metadata as md
+
+    from svcore.versions import code_digest
+
     code, out, _ = call(group, prog, ["--version"])
-    assert code == 0 and out.strip() == f"{prog} {version()}" and version() not in ("", "unknown")
+    assert code == 0 and out.startswith(f"{prog} {md.version('svgen')} (code {code_digest()[:12]}"), out
+    assert version() == f"{md.version('svgen')} (code {code_digest()[:12]})" and out.count("\n") == 1
+
+
+def test_the_recorded_version_ignores_edited_data_files_and_names_edited_code(tmp_path):
+    """Issue #25 item 3: `dvc exp run -S` edits params.yaml (and dvc.lock): what stores and runs record must not
+    call that modified code; an edited source file changes the recorded code digest."""
+    import shutil
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    for pkg in ("svcore", "pipeline", "materials", "train"):
+        shutil.copytree(root / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(root / "params.yaml", tmp_path / "params.yaml")
+    git = ["git", "-c", "user.name=t", "-c", "user.email=t@t", "-c", "commit.gpgsign=false"]
+    for cmd in (["init", "-q"], ["add", "-A"], ["commit", "-qm", "x"]):
+        subprocess.run(git + cmd, cwd=tmp_path, check=True, capture_output=True)
+    show = "from svcore.versions import library_versions as v; import json; print(json.dumps(v()))"
+
+    def recorded() -> dict:
+        r = subprocess.run([sys.executable, "-c", show], cwd=tmp_path, capture_output=True, text=True,
+                           env={**__import__("os").environ, "PYTHONPATH": str(tmp_path)})
+        assert r.returncode == 0, r.stderr[-300:]
+        return __import__("json").loads(r.stdout)
+
+    clean = recorded()
+    with open(tmp_path / "params.yaml", "a") as f:  # what `dvc exp run -S` does
+        f.write("# an experiment\n")
+    assert recorded() == clean and "dirty" not in clean["svgen"], clean["svgen"]
+    with open(tmp_path / "svcore" / "seeds.py", "a") as f:
+        f.write("# edited\n")
+    edited = recorded()
+    assert edited["svgen_code"] != clean["svgen_code"] and edited["svgen"] != clean["svgen"]
+    assert edited["svgen_package"] == clean["svgen_package"]
 
 
 def test_core_and_cli_import_no_heavy_library():

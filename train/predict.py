@@ -177,12 +177,10 @@ class Prediction:
 
 
 def svgen_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
+    """The running svgen code: package version and source digest (:func:`svcore.versions.svgen_version`)."""
+    from svcore.versions import svgen_version as version
 
-    try:
-        return version("svgen")
-    except PackageNotFoundError:
-        return "unknown"
+    return version()
 
 
 @torch.no_grad()

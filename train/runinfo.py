@@ -12,6 +12,7 @@ import json
 import os
 from pathlib import Path
 
+from svcore import versions
 from svcore.errors import StoreError
 
 RUN_FILE = "run.json"
@@ -31,18 +32,10 @@ def record(run_dir: str | os.PathLike, store: str | None) -> None:
     os.replace(tmp, run / RUN_FILE)
 
 
-#: the packages whose source decides a run's result (``svtrain fit`` reads stores through pipeline's readers).
-CODE_PACKAGES = ("svcore", "pipeline", "materials", "train")
-
-
-def code_digest() -> str:
-    """sha256 of the source of :data:`CODE_PACKAGES` (file names and bytes): the code half of :func:`resume_key`."""
-    root = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256()
-    for pkg in CODE_PACKAGES:
-        for f in sorted((root / pkg).rglob("*.py")):
-            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
-    return h.hexdigest()
+#: the packages whose digest is the code half of :func:`resume_key` (one list with the recorded versions)
+CODE_PACKAGES = versions.CODE_PACKAGES
+#: sha256 of the source of :data:`CODE_PACKAGES` (svcore.versions: what stores and runs record as the code)
+code_digest = versions.code_digest
 
 
 def resume_key(cfg, data: dict) -> str:
