@@ -68,6 +68,34 @@ def test_predict_png_and_exr(run_dir, tmp_path):
         np.testing.assert_allclose(np.linalg.norm(n, axis=-1), 1, atol=1e-4)
 
 
+def test_predict_reads_an_rgba_exr_like_its_rgb(run_dir, tmp_path, caplog):
+    """Issue #25 item 10: RGBA is the EXR renderers and editors write most; its alpha is dropped (said when it is
+    not opaque) and the prediction equals that of the same RGB image."""
+    import logging
+
+    import OpenEXR
+
+    img = np.random.default_rng(1).uniform(0.05, 0.6, (40, 40, 3)).astype(np.float32)
+    write_exr(tmp_path / "photo_rgb.exr", img)
+    for name, alpha in (("photo_rgba.exr", 1.0), ("photo_alpha.exr", 0.5)):
+        rgba = np.concatenate([img, np.full((40, 40, 1), alpha, np.float32)], axis=-1)
+        with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                          {"RGBA": rgba}) as f:
+            f.write(str(tmp_path / name))
+    maps = {}
+    for name in ("photo_rgb.exr", "photo_rgba.exr", "photo_alpha.exr"):
+        caplog.clear()
+        with caplog.at_level(logging.WARNING):
+            code, out, err = run("predict", tmp_path / name, "--checkpoint", run_dir, "--out", tmp_path / (name + "_m"),
+                                 "--size", 32)
+        assert code == 0, err
+        said = " ".join(r.getMessage() for r in caplog.records)
+        assert ("alpha channel is not opaque" in said) == (name == "photo_alpha.exr"), said
+        maps[name] = read_exr(tmp_path / (name + "_m") / "diffuse.exr")
+    np.testing.assert_array_equal(maps["photo_rgba.exr"], maps["photo_rgb.exr"])
+    np.testing.assert_array_equal(maps["photo_alpha.exr"], maps["photo_rgb.exr"])
+
+
 def test_png_is_linearised(tmp_path):
     from train.predict import read_photo
 
