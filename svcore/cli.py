@@ -208,9 +208,7 @@ def config_command(cls, flags: dict[str, str], envvars: dict[str, str] | None = 
 
 def config_from_cli(cls, kw: dict):
     """Pop the config options of :func:`config_command` from ``kw`` and resolve them (``--print-config`` exits)."""
-    import yaml
-
-    from .config import parse_sets, resolve
+    from .config import params_text, parse_sets, resolve
 
     flags = {}
     for name in [k for k in kw if k.startswith("cfg__")]:
@@ -218,7 +216,7 @@ def config_from_cli(cls, kw: dict):
         flags[name[5:].replace("__", ".")] = (tuple(val) or None) if isinstance(val, tuple) else val
     cfg = resolve(cls, kw.pop("config_preset"), kw.pop("params_file"), parse_sets(kw.pop("sets")), flags)
     if kw.pop("print_config"):
-        click.echo(yaml.safe_dump({cls.SECTION: cfg.as_dict()}, sort_keys=False), nl=False)
+        click.echo(params_text(cfg), nl=False)
         raise click.exceptions.Exit(0)
     return cfg
 

@@ -111,10 +111,20 @@ def test_ints_are_accepted_where_floats_are_expected():
 
 
 @pytest.mark.parametrize("content, words", [("", "is empty"), ("render:\n  views: 2\n", "has no 'stress' section")])
-def test_empty_params_or_missing_section_runs_the_defaults_and_says_so(content, words, tmp_path, caplog):
+def test_other_params_files_without_the_section_are_refused(content, words, tmp_path):
+    """Issue #25 item 2: a params file other than the project's params.yaml was given for this command (e.g. a
+    run's config.yaml given to another command): running the defaults instead would be a silent surprise."""
     (tmp_path / "p.yaml").write_text(content)
+    code, out, err = call(cli, "svgen", ["stress", "--params", tmp_path / "p.yaml", "--print-config"])
+    assert code == 2 and out == "" and err.count("\n") == 1, err
+    assert words in err and "needs a 'stress:' section" in err, err
+
+
+@pytest.mark.parametrize("content, words", [("", "is empty"), ("render:\n  views: 2\n", "has no 'stress' section")])
+def test_empty_params_or_missing_section_runs_the_defaults_and_says_so(content, words, tmp_path, caplog):
+    (tmp_path / "params.yaml").write_text(content)  # the project's params file: a section may be absent
     with caplog.at_level(logging.WARNING):
-        code, out, err = call(cli, "svgen", ["stress", "--params", tmp_path / "p.yaml", "--print-config"])
+        code, out, err = call(cli, "svgen", ["stress", "--params", tmp_path / "params.yaml", "--print-config"])
     assert code == 0, err
     said = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert len(said) == 1 and words in said[0] and "defaults" in said[0], said

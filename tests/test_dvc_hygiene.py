@@ -253,6 +253,6 @@ def test_exp_run_sets_a_nested_training_key(repro):
     sh("git add -A && git commit -qm repro", repro)
     r = sh(["dvc", "exp", "run", "-S", "train.model.decoder_convs=2"], repro, env=FAST)
     assert "Running stage 'fit'" in r.stdout and "Running stage 'sample'" not in r.stdout, r.stdout
-    cfg = yaml.safe_load((repro / "runs/train/config.yaml").read_text())
+    cfg = yaml.safe_load((repro / "runs/train/config.yaml").read_text())["train"]
     assert cfg["model"]["decoder_convs"] == 2
     assert yaml.safe_load((repro / "params.yaml").read_text())["train"]["model"]["decoder_convs"] == 2

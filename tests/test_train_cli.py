@@ -96,6 +96,18 @@ def test_predict_reads_an_rgba_exr_like_its_rgb(run_dir, tmp_path, caplog):
     np.testing.assert_array_equal(maps["photo_alpha.exr"], maps["photo_rgb.exr"])
 
 
+def test_a_runs_config_yaml_is_a_params_file_that_reproduces_it(run_dir, tmp_path):
+    """Issue #25 item 2: `svtrain fit --params RUN/config.yaml` resolves to exactly the run's config (levels 3 of
+    SMALL, not the preset's 7), with nothing said about a missing section."""
+    saved = (run_dir / "config.yaml").read_text()
+    code, out, err = run("fit", "--params", run_dir / "config.yaml", "--print-config")
+    assert code == 0 and err == "", err
+    assert out == saved and "levels: 3" in out
+    (tmp_path / "other.yaml").write_text("sample:\n  seed: 1\n")  # another command's section only
+    code, out, err = run("fit", "--params", tmp_path / "other.yaml", "--print-config")
+    assert code == 2 and "has no 'train' section (it has sample)" in err and err.count("\n") == 1, err
+
+
 def test_png_is_linearised(tmp_path):
     from train.predict import read_photo
 

@@ -9,8 +9,8 @@ Devices and precision come from ``cfg.compute`` (train/device.py); under a data-
 one rank (train/distributed.py) and rank 0 alone writes. :class:`Trainer` is the loop itself: ``fit`` adds
 checkpoints, progress and outputs around it, and the benchmarks iterate the same object.
 
-Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (full state),
-``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
+Outputs in the run directory: ``config.yaml`` (the resolved config as a params file with a ``train:`` section),
+``checkpoint.pt`` (full state), ``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
 versions), ``metrics.json`` (everything), ``fit_metrics.json`` (the few numbers `dvc metrics` shows), ``loss.csv``,
 ``loss.png``.
 """
@@ -25,8 +25,8 @@ from typing import Iterator
 
 import numpy as np
 import torch
-import yaml
 
+from svcore.config import params_text
 from svcore.errors import ConfigError, SvgenError
 from svcore.log import get_logger
 from svcore.progress import progress
@@ -349,7 +349,7 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
             log.info("resuming %s at step %d", out, start)
     resumed_from = start if state is not None else None
     if world.main:
-        (out / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
+        (out / "config.yaml").write_text(params_text(cfg))  # a params file: `svtrain fit --params` reruns it
         (out / "provenance.json").write_text(json.dumps(provenance(cfg, src), indent=2) + "\n")
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
