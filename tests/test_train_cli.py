@@ -108,6 +108,32 @@ def test_a_runs_config_yaml_is_a_params_file_that_reproduces_it(run_dir, tmp_pat
     assert code == 2 and "has no 'train' section (it has sample)" in err and err.count("\n") == 1, err
 
 
+def test_plain_resume_refuses_other_data_or_config_and_says_what_changed(run_dir, tmp_path, caplog):
+    """Issue #25 item 1: a plain `svtrain fit --out RUN` continues RUN only on the same data and config (more
+    iterations allowed); otherwise one line names the change and points to --no-resume. Without a store it says
+    that it trains on the synthetic demo source."""
+    import logging
+    import shutil
+
+    run_ = tmp_path / "run"
+    shutil.copytree(run_dir, run_)
+    before = {f: (run_ / f).read_text() for f in ("provenance.json", "run.json", "config.yaml")}
+    for extra, words in ((["--set", "data.synthetic_seed=5"], "data the synthetic demo source"),
+                         (["--set", "optim.lr=0.01"], "optim.lr 0.001 -> 0.01"),
+                         (["--set", "model.levels=2"], "model.levels 3 -> 2")):
+        code, out, err = run("fit", "--out", run_, "--iterations", 4, *SMALL, *extra)
+        assert code == 2 and words in err and "--no-resume" in err and err.count("\n") == 1, err
+        assert {f: (run_ / f).read_text() for f in before} == before  # refused before anything is rewritten
+    code, out, err = run("fit", "--out", run_, "--iterations", 4, *SMALL, "--set", "data.synthetic_seed=5",
+                         "--no-resume")
+    assert code == 0 and json.loads(out.strip().splitlines()[-1])["resumed_from"] is None, err
+    with caplog.at_level(logging.WARNING):
+        code, out, err = run("fit", "--out", run_, "--iterations", 5, *SMALL, "--set", "data.synthetic_seed=5")
+    assert code == 0 and json.loads(out.strip().splitlines()[-1])["resumed_from"] == 4, err
+    said = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert any("training on the synthetic demo source" in m for m in said), said
+
+
 def test_png_is_linearised(tmp_path):
     from train.predict import read_photo
 
