@@ -28,11 +28,11 @@ class SampleConfig(StageConfig):
 
     SECTION: ClassVar[str] = "sample"
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
-        "default": {}, "tiny": {"per_preset": 2, "size": 64, "chunk": 8}, "paper": {"per_preset": 12, "size": 288}}
+        "default": {}, "tiny": {"per_preset": 2, "size": 64, "chunk": 8}, "paper": {"per_preset": 36, "size": 288}}
 
     per_preset: int = Field(12, ge=1)
-    """Variants per base material (the paper: ~1,850 variants of 155 materials, i.e. 12 each). Variant 0 is the
-    preset's defaults; the others are perturbed."""
+    """Variants per base material (the paper's scale, ~1,850 variants, is the paper preset's value:
+    --config-preset paper --print-config). Variant 0 is the preset's defaults; the others are perturbed."""
     size: int = Field(256, ge=MIN_SIZE, le=MAX_SIZE)
     """Map resolution (square; the material generators' range, any integer in it)."""
     seed: int = Field(0, ge=0, lt=2 ** 64)
