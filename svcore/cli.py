@@ -56,6 +56,15 @@ def version_option(prog: str):
                                 help="Print the package version (with the source digest and git describe) and exit.")
 
 
+def force_option(what: str = "outputs"):
+    """``--force``: the one flag that lets a command write over existing outputs (the rule:
+    :func:`svcore.outputs.refuse_existing`). ``what`` names them in the help."""
+    from .outputs import FORCE_FLAG
+
+    return click.option(FORCE_FLAG, "force", is_flag=True,
+                        help=f"Overwrite existing {what} (without it an existing output is refused).")
+
+
 def run_cli(group: click.Group, prog: str, argv=None) -> int:
     """Run a click group; user errors become one line on stderr and exit code 2 (no traceback).
 

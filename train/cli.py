@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from pipeline.cli_options import storage_option
-from svcore.cli import config_command, run_cli, version_option
+from svcore.cli import config_command, force_option, run_cli, version_option
 from svcore.log import configure, get_logger
 
 from .config import Config
@@ -124,13 +124,14 @@ def eval_extra(ckpt, params_file, out, device):
               help="auto: PNG/JPEG are sRGB, EXR linear. The 2018 paper's PNG data are linear: use linear for them.")
 @click.option("--batch", "batch_size", type=click.IntRange(min=1), default=8, show_default=True, help="Photos per network call.")
 @click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
-def predict(photos, ckpt, out, size, input_space, batch_size, device):
+@force_option("maps folders")
+def predict(photos, ckpt, out, size, input_space, batch_size, device, force):
     """Estimate normal, diffuse, roughness and specular maps from flash PHOTOS (files or folders; PNG/JPEG/EXR)."""
     from svcore.errors import SvgenError
 
     from .predict import predict_many
 
-    res = predict_many(list(photos), ckpt, out, size, input_space, batch_size, device)
+    res = predict_many(list(photos), ckpt, out, size, input_space, batch_size, device, force=force)
     for d in res.written:
         click.echo(str(d))
     if len(res.failed) == 1 and not res.written:
