@@ -53,6 +53,7 @@ def world(tmp_path_factory):
     (d / "quoted_sigma.yaml").write_text('sample:\n  sigma: "0.25"\n')
     (d / "list_section.yaml").write_text("sample:\n  - per_preset\n")
     (d / "train_bool_lr.yaml").write_text("train:\n  optim:\n    lr: true\n")
+    (d / "eval_limit.yaml").write_text("eval:\n  limit: -5\n  extra_stores: []\n")
     (d / "notes.png").write_text("this is not an image")
     Image.fromarray(np.zeros((4, 300, 3), np.uint8)).save(d / "thin.png")
     (d / "photo.jpg").write_bytes(b"")
@@ -246,6 +247,8 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
      "stress.size must be <= 1024, got 1025"),
     ("eval: negative --limit", T, ["eval", "--checkpoint", "{d}/run", "--limit", "-5", "--out", "{d}/o.zarr"],
      "Invalid value for '--limit': -5 is not in the range x>=1"),
+    ("eval-extra: negative eval.limit", T, ["eval-extra", "--checkpoint", "{d}/run", "--params", "{d}/eval_limit.yaml",
+                                           "--out", "{d}/o.zarr"], "eval.limit must be an integer >= 1 (or null), got -5"),
     ("predict: zero --batch", T, ["predict", "{d}/ok.png", "--checkpoint", "{d}/run", "--batch", "0", "--out",
                                  "{d}/o.zarr"], "Invalid value for '--batch': 0 is not in the range x>=1"),
     ("predict: unknown input space", T, ["predict", "{d}/thin.png", "--checkpoint", "{d}/run", "--input-space",
