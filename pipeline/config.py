@@ -10,6 +10,7 @@ from typing import Any, ClassVar, Literal
 
 from pydantic import ConfigDict, Field, model_validator
 
+from materials.registry import MAX_SIZE, MIN_SIZE
 from svcore.config import ConfigModel
 
 #: ``Field(strict=False)`` on list fields: YAML gives lists, the config keeps tuples (hashable, frozen).
@@ -27,13 +28,13 @@ class SampleConfig(StageConfig):
 
     SECTION: ClassVar[str] = "sample"
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
-        "default": {}, "tiny": {"per_preset": 2, "size": 64, "chunk": 8}, "paper": {"per_preset": 12, "size": 288}}
+        "default": {}, "tiny": {"per_preset": 2, "size": 64, "chunk": 8}, "paper": {"per_preset": 36, "size": 288}}
 
     per_preset: int = Field(12, ge=1)
-    """Variants per base material (the paper: ~1,850 variants of 155 materials, i.e. 12 each). Variant 0 is the
-    preset's defaults; the others are perturbed."""
-    size: int = 256
-    """Map resolution (square, 64..1024)."""
+    """Variants per base material (the paper's scale, ~1,850 variants, is the paper preset's value:
+    --config-preset paper --print-config). Variant 0 is the preset's defaults; the others are perturbed."""
+    size: int = Field(256, ge=MIN_SIZE, le=MAX_SIZE)
+    """Map resolution (square; the material generators' range, any integer in it)."""
     seed: int = Field(0, ge=0, lt=2 ** 64)
     """Master seed of the stage; variant k of preset P uses derive_seed(seed, "sample", crc32(P), k)."""
     sigma: float = Field(0.25, gt=0, le=10)
@@ -107,8 +108,8 @@ class StressConfig(StageConfig):
 
     per_category: int = Field(8, ge=1)
     """SVBRDFs per category."""
-    size: int = 256
-    """Map resolution (square, 64..1024)."""
+    size: int = Field(256, ge=MIN_SIZE, le=MAX_SIZE)
+    """Map resolution (square; the material generators' range, any integer in it)."""
     seed: int = Field(0, ge=0, lt=2 ** 64)
     """Master seed; sample j of category C uses derive_seed(seed, "stress", crc32(C), j)."""
     categories: tuple[str, ...] = Field((), **_LIST)

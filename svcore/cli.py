@@ -27,23 +27,42 @@ def one_line(msg: object) -> str:
 
 
 def version() -> str:
-    """``git describe`` of the source tree when it is a git checkout, else the installed package version
-    (:func:`svcore.versions.svgen_version`)."""
+    """The package version with the code's digest (:func:`svcore.versions.svgen_version`), what results record."""
     from .versions import svgen_version
 
     return svgen_version()
 
 
+def version_detail() -> str:
+    """What ``--version`` adds in brackets: the source digest and, in a git checkout, ``git describe`` (whose
+    "-dirty" also counts edited data files such as dvc.lock, so it is a detail, never the version)."""
+    from .versions import SHORT_DIGEST, code_digest, git_description
+
+    git = git_description()
+    return f"code {code_digest()[:SHORT_DIGEST]}" + (f", git {git}" if git else "")
+
+
+class _VersionMessage(str):
+    """click's version message, formatted when ``--version`` is given (not at import: git runs only then)."""
+
+    def __mod__(self, values):
+        return f"{values['prog']} {values['version']} ({version_detail()})"
+
+
 def version_option(prog: str):
-    """``--version``: print ``PROG VERSION`` (see :func:`version`) and exit 0."""
+    """``--version``: ``PROG PACKAGE_VERSION (code DIGEST, git DESCRIBE)`` and exit 0; the package version from its
+    metadata (click.version_option)."""
+    return click.version_option(package_name="svgen", prog_name=prog, message=_VersionMessage("%(prog)s %(version)s"),
+                                help="Print the package version (with the source digest and git describe) and exit.")
 
-    def show(ctx, _param, value):
-        if value and not ctx.resilient_parsing:
-            click.echo(f"{prog} {version()}")
-            ctx.exit(0)
 
-    return click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=show,
-                        help="Print the version (git describe of the source, else the package version) and exit.")
+def force_option(what: str = "outputs"):
+    """``--force``: the one flag that lets a command write over existing outputs (the rule:
+    :func:`svcore.outputs.refuse_existing`). ``what`` names them in the help."""
+    from .outputs import FORCE_FLAG
+
+    return click.option(FORCE_FLAG, "force", is_flag=True,
+                        help=f"Overwrite existing {what} (without it an existing output is refused).")
 
 
 def run_cli(group: click.Group, prog: str, argv=None) -> int:
@@ -74,6 +93,9 @@ def _run_cli(group: click.Group, prog: str, argv=None) -> int:
         return 130
     except click.exceptions.Exit as e:
         return e.exit_code
+    except click.exceptions.NoArgsIsHelpError as e:  # a bare `svgen`: the help asked for, not a usage error
+        click.echo(e.ctx.get_help() if e.ctx is not None else group.get_help(click.Context(group, info_name=prog)))
+        return 0
     except click.ClickException as e:
         click.echo(f"{prog}: error: {one_line(e.format_message())}", err=True)
         return e.exit_code or 2
@@ -195,9 +217,7 @@ def config_command(cls, flags: dict[str, str], envvars: dict[str, str] | None = 
 
 def config_from_cli(cls, kw: dict):
     """Pop the config options of :func:`config_command` from ``kw`` and resolve them (``--print-config`` exits)."""
-    import yaml
-
-    from .config import parse_sets, resolve
+    from .config import params_text, parse_sets, resolve
 
     flags = {}
     for name in [k for k in kw if k.startswith("cfg__")]:
@@ -205,7 +225,7 @@ def config_from_cli(cls, kw: dict):
         flags[name[5:].replace("__", ".")] = (tuple(val) or None) if isinstance(val, tuple) else val
     cfg = resolve(cls, kw.pop("config_preset"), kw.pop("params_file"), parse_sets(kw.pop("sets")), flags)
     if kw.pop("print_config"):
-        click.echo(yaml.safe_dump({cls.SECTION: cfg.as_dict()}, sort_keys=False), nl=False)
+        click.echo(params_text(cfg), nl=False)
         raise click.exceptions.Exit(0)
     return cfg
 

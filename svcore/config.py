@@ -20,8 +20,10 @@ parsed as one YAML scalar or flow collection (``--set optim.lr=1e-3``, ``--set m
 is refused with a one-line error naming the key, since quoting it was asked for. Integers are accepted where
 a float is expected; nothing else is converted.
 
-An empty params.yaml, or one without the command's section, is not an error but says so in one warning
-line: the defaults run. Unknown keys are errors.
+An empty ``params.yaml``, or one without the command's section, is not an error but says so in one warning
+line: the defaults run (the project's params file holds every stage's section, and a command may be run before
+its section exists). Any other params file (a run's ``config.yaml``, an experiment's own file) was given for this
+command: a missing section there is an error. Unknown keys are errors.
 """
 from __future__ import annotations
 
@@ -121,27 +123,41 @@ def parse_sets(items: typing.Iterable[str]) -> dict[str, Any]:
     return out
 
 
+#: the file name of the project's params file (DVC's): the one params file whose missing section is only a warning
+PROJECT_PARAMS = "params.yaml"
+
+
 def params_section(path: str | Path, section: str) -> dict[str, Any]:
-    """The ``section`` mapping of a params.yaml; ``{}`` (with a warning line) when the file or section is empty.
+    """The ``section`` mapping of a params file; for the project's ``params.yaml``, ``{}`` (with a warning line)
+    when the file or section is empty.
 
     Raises:
-        ConfigError: missing or malformed file, a top level that is not a mapping, a section that is not one.
+        ConfigError: missing or malformed file, a top level that is not a mapping, a section that is not one; an
+            empty or missing section in a file other than ``params.yaml``.
     """
     doc = read_yaml(path)
-    if doc is None:
-        log.warning("params file %s is empty: %s runs with its defaults", path, section)
-        return {}
-    if not isinstance(doc, dict):
+    if doc is not None and not isinstance(doc, dict):
         raise ConfigError(f"params file {path}: the top level must be a mapping of sections (sample:, render: ...), "
                           f"got a {type(doc).__name__}")
-    if section not in doc or doc[section] is None:
-        log.warning("params file %s has no '%s' section: %s runs with its defaults", path, section, section)
+    if doc is None or doc.get(section) is None:
+        what = "is empty" if doc is None else f"has no '{section}' section"
+        if Path(path).name != PROJECT_PARAMS:
+            found = f" (it has {', '.join(map(str, doc))})" if doc else ""
+            raise ConfigError(f"params file {path} {what}{found}: a params file for this command needs a "
+                              f"'{section}:' section (--print-config writes one)")
+        log.warning("params file %s %s: %s runs with its defaults", path, what, section)
         return {}
     sec = doc[section]
     if not isinstance(sec, dict):
         raise ConfigError(f"params file {path}: section '{section}' must be a mapping of keys, "
                           f"got a {type(sec).__name__}")
     return dict(sec)
+
+
+def params_text(cfg: ConfigModel) -> str:
+    """A resolved config as a params file (``SECTION:`` and every key): what ``--print-config`` prints and a run
+    records, and what ``--params`` reads back to the same config."""
+    return yaml.safe_dump({cfg.SECTION: cfg.as_dict()}, sort_keys=False)
 
 
 # -- merging and validation --------------------------------------------------------------------------------
@@ -190,7 +206,8 @@ def _describe(err: dict, section: str) -> str:
         return f"config key {key!r} is a section: give its keys as a mapping, got {val!r}"
     msg = f"{key} must be {expect}" if expect else f"{key}: {err['msg']}"
     hint = ""
-    if isinstance(val, str) and t in ("int_type", "float_type", "bool_type"):
+    if isinstance(val, str) and t in ("int_type", "float_type", "bool_type") and \
+            not isinstance(parse_value(val), str):  # only a value that unquoted would be a number or a boolean
         hint = " (a quoted value is a string: write it without quotes)"
     return f"{msg}, got {val!r}{hint}"
 

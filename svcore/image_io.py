@@ -184,30 +184,46 @@ def write_exr(path: str | Path, img: np.ndarray) -> Path:
     return Path(path)
 
 
-def read_exr(path: str | Path) -> np.ndarray:
-    """Read an EXR's RGB (or R,G,B, or Y) channels as (H, W, 3) float32, linear.
+def read_exr_channels(path: str | Path) -> np.ndarray:
+    """The one EXR reader of the project: an EXR's colour channels as (H, W, C) float32, linear, as stored.
+
+    C is 3 for R,G,B (RGB, RGBA: the alpha channel is dropped, with a warning when it is not opaque, since the
+    colours of a transparent EXR are often premultiplied by it), 2 for R,G only (a two-channel normal map), 1 for
+    a single Y, R, G or B channel. Channels are read one by one, so any of these layouts and pixel types work.
 
     Raises:
-        ImageError: unreadable file or no colour channels.
+        ImageError: unreadable file, or no R, G, B or Y channel.
     """
     import OpenEXR
 
     try:
-        with OpenEXR.File(str(path)) as f:
-            ch = f.channels()
-            if "RGB" in ch:
-                a = ch["RGB"].pixels
-            elif all(c in ch for c in "RGB"):
-                a = np.stack([ch[c].pixels for c in "RGB"], axis=-1)
-            elif "Y" in ch:
-                a = np.repeat(ch["Y"].pixels[..., None], 3, axis=-1)
-            else:
-                raise ImageError(f"{path} has no RGB or Y channels (has {', '.join(ch)})")
-    except ImageError:
-        raise
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            ch = {k: np.asarray(v.pixels, np.float32) for k, v in f.channels().items()}
     except Exception as e:
-        raise ImageError(f"cannot read EXR {path}: {e}") from None
-    a = np.asarray(a, np.float32)
-    if a.ndim != 3 or a.shape[-1] != 3:
-        raise ImageError(f"{path}: expected an RGB image, got shape {a.shape}")
+        raise ImageError(f"cannot read EXR {path}: {' '.join(str(e).split())}") from None
+    if all(c in ch for c in "RGB"):
+        if "A" in ch and not np.all(ch["A"] == 1):
+            log.warning("%s: its alpha channel is not opaque everywhere; alpha is dropped and the colours read as "
+                        "stored", path)
+        return np.stack([ch[c] for c in "RGB"], axis=-1)
+    if "R" in ch and "G" in ch:
+        return np.stack([ch["R"], ch["G"]], axis=-1)
+    for c in ("Y", "R", "G", "B"):
+        if c in ch:
+            return ch[c][..., None]
+    raise ImageError(f"{path} has no R, G, B or Y channels (has {', '.join(sorted(ch))})")
+
+
+def read_exr(path: str | Path) -> np.ndarray:
+    """Read an EXR photo (RGB, RGBA with alpha dropped, or grey Y) as (H, W, 3) float32, linear
+    (:func:`read_exr_channels`).
+
+    Raises:
+        ImageError: unreadable file or no colour channels.
+    """
+    a = read_exr_channels(path)
+    if a.shape[-1] == 1:
+        return np.repeat(a, 3, axis=-1)
+    if a.shape[-1] != 3:
+        raise ImageError(f"{path}: expected an RGB, RGBA or grey image, got channels R and G only")
     return a

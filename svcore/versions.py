@@ -1,6 +1,13 @@
-"""What a result records about the code that made it: library versions and the svgen version."""
+"""What a result records about the code that made it: library versions and the svgen version.
+
+The svgen version is the installed package's version (its metadata) beside a digest of the source that runs
+(:func:`code_digest`), not ``git describe``: a checkout where only ``dvc.lock`` or ``params.yaml`` changed (what
+``dvc exp run -S`` does) is not "-dirty" code, and an edited source file is told apart from the package's release
+by its digest. ``git describe`` stays a detail of ``--version`` (:func:`git_description`).
+"""
 from __future__ import annotations
 
+import hashlib
 import subprocess
 from functools import lru_cache
 from pathlib import Path
@@ -8,22 +15,25 @@ from pathlib import Path
 #: the libraries whose versions shape the bytes of stores and trained models.
 LIBRARIES = ("svgen", "numpy", "scipy", "zarr", "dask", "mitsuba", "drjit", "colour-science", "torch", "pydantic")
 
+#: the packages whose source decides a result (stores and trained models); their digest names the code.
+CODE_PACKAGES = ("svcore", "pipeline", "materials", "train")
+#: hex digits of the code digest shown in a version string (48 bits: enough to tell two trees apart by eye)
+SHORT_DIGEST = 12
 
-@lru_cache(maxsize=1)
-def svgen_version() -> str:
-    """The version of the svgen code that runs: ``git describe --tags --always --dirty`` of its source tree when
-    that is a git checkout (a tag, commits since it, the commit, ``-dirty`` for uncommitted changes), else the
-    installed package's version (setuptools-scm derives it from the same tags at build time: ``0.2.1.dev3+gabc1234``;
-    ``0.1.0.dev0`` when built without git metadata), else ``"unknown"``."""
+
+def code_digest() -> str:
+    """sha256 (hex) of the source of :data:`CODE_PACKAGES`: each ``*.py`` file's path and bytes, in path order."""
     root = Path(__file__).resolve().parents[1]
-    if (root / ".git").exists():
-        try:
-            r = subprocess.run(["git", "describe", "--tags", "--always", "--dirty"], cwd=root, capture_output=True,
-                               text=True, timeout=5)
-            if r.returncode == 0 and r.stdout.strip():
-                return r.stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            pass
+    h = hashlib.sha256()
+    for pkg in CODE_PACKAGES:
+        for f in sorted((root / pkg).rglob("*.py")):
+            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def package_version() -> str:
+    """The installed svgen package's version (setuptools-scm derives it from the git tags at install time:
+    ``0.2.1.dev3+gabc1234``), else ``"unknown"``."""
     import importlib.metadata as md
 
     try:
@@ -32,10 +42,32 @@ def svgen_version() -> str:
         return "unknown"
 
 
+@lru_cache(maxsize=1)
+def svgen_version() -> str:
+    """The version of the svgen code that runs: ``"PACKAGE (code DIGEST)"``, the package version and the first
+    :data:`SHORT_DIGEST` hex digits of :func:`code_digest` (e.g. ``0.1.0.dev284+g5dbbc3b77 (code 3f2a9c1d7e4b)``)."""
+    return f"{package_version()} (code {code_digest()[:SHORT_DIGEST]})"
+
+
+@lru_cache(maxsize=1)
+def git_description() -> str | None:
+    """``git describe --tags --always --dirty`` of the source tree when it is a git checkout, else None (detail of
+    ``--version`` only: "-dirty" also counts edits to data files such as dvc.lock)."""
+    root = Path(__file__).resolve().parents[1]
+    if not (root / ".git").exists():
+        return None
+    try:
+        r = subprocess.run(["git", "describe", "--tags", "--always", "--dirty"], cwd=root, capture_output=True,
+                           text=True, timeout=5)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return r.stdout.strip() or None if r.returncode == 0 else None
+
+
 def library_versions() -> dict[str, str]:
     """Installed versions of :data:`LIBRARIES` (those not installed are left out), with ``svgen`` the version of
-    the running code (:func:`svgen_version`: git describe in a checkout, not the package's fixed number) and
-    ``svgen_package`` the installed package's version."""
+    the running code (:func:`svgen_version`: package version and code digest), ``svgen_package`` the package's
+    version alone and ``svgen_code`` the full :func:`code_digest`."""
     import importlib.metadata as md
 
     out = {}
@@ -44,7 +76,7 @@ def library_versions() -> dict[str, str]:
             out[pkg] = md.version(pkg)
         except md.PackageNotFoundError:
             pass
-    if "svgen" in out:
-        out["svgen_package"] = out["svgen"]
     out["svgen"] = svgen_version()
+    out["svgen_package"] = package_version()
+    out["svgen_code"] = code_digest()
     return out

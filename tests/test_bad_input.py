@@ -53,6 +53,7 @@ def world(tmp_path_factory):
     (d / "quoted_sigma.yaml").write_text('sample:\n  sigma: "0.25"\n')
     (d / "list_section.yaml").write_text("sample:\n  - per_preset\n")
     (d / "train_bool_lr.yaml").write_text("train:\n  optim:\n    lr: true\n")
+    (d / "eval_limit.yaml").write_text("eval:\n  limit: -5\n  extra_stores: []\n")
     (d / "notes.png").write_text("this is not an image")
     Image.fromarray(np.zeros((4, 300, 3), np.uint8)).save(d / "thin.png")
     (d / "photo.jpg").write_bytes(b"")
@@ -247,6 +248,17 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
      "refused (loading it could run"),
     ("fit --resume: checkpoint with a pickled object", T, ["fit", "--out", "{d}/evil_run", *SMALL],
      "refused (loading it could run"),
+    # issue #25 item 7: every bound is in the config field or the option's type, so it is named before any work
+    ("size below the generators' range, --print-config", S, ["sample", "--size", "63", "--print-config"],
+     "sample.size must be >= 64, got 63"),
+    ("stress size above the generators' range", S, ["stress", "{d}/o.zarr", "--set", "size=1025"],
+     "stress.size must be <= 1024, got 1025"),
+    ("eval: negative --limit", T, ["eval", "--checkpoint", "{d}/run", "--limit", "-5", "--out", "{d}/o.zarr"],
+     "Invalid value for '--limit': -5 is not in the range x>=1"),
+    ("eval-extra: negative eval.limit", T, ["eval-extra", "--checkpoint", "{d}/run", "--params", "{d}/eval_limit.yaml",
+                                           "--out", "{d}/o.zarr"], "eval.limit must be an integer >= 1 (or null), got -5"),
+    ("predict: zero --batch", T, ["predict", "{d}/ok.png", "--checkpoint", "{d}/run", "--batch", "0", "--out",
+                                 "{d}/o.zarr"], "Invalid value for '--batch': 0 is not in the range x>=1"),
     ("predict: unknown input space", T, ["predict", "{d}/thin.png", "--checkpoint", "{d}/run", "--input-space",
                                          "gamma", "--out", "{d}/o.zarr"], "Invalid value"),
 ]

@@ -111,10 +111,20 @@ def test_ints_are_accepted_where_floats_are_expected():
 
 
 @pytest.mark.parametrize("content, words", [("", "is empty"), ("render:\n  views: 2\n", "has no 'stress' section")])
-def test_empty_params_or_missing_section_runs_the_defaults_and_says_so(content, words, tmp_path, caplog):
+def test_other_params_files_without_the_section_are_refused(content, words, tmp_path):
+    """Issue #25 item 2: a params file other than the project's params.yaml was given for this command (e.g. a
+    run's config.yaml given to another command): running the defaults instead would be a silent surprise."""
     (tmp_path / "p.yaml").write_text(content)
+    code, out, err = call(cli, "svgen", ["stress", "--params", tmp_path / "p.yaml", "--print-config"])
+    assert code == 2 and out == "" and err.count("\n") == 1, err
+    assert words in err and "needs a 'stress:' section" in err, err
+
+
+@pytest.mark.parametrize("content, words", [("", "is empty"), ("render:\n  views: 2\n", "has no 'stress' section")])
+def test_empty_params_or_missing_section_runs_the_defaults_and_says_so(content, words, tmp_path, caplog):
+    (tmp_path / "params.yaml").write_text(content)  # the project's params file: a section may be absent
     with caplog.at_level(logging.WARNING):
-        code, out, err = call(cli, "svgen", ["stress", "--params", tmp_path / "p.yaml", "--print-config"])
+        code, out, err = call(cli, "svgen", ["stress", "--params", tmp_path / "params.yaml", "--print-config"])
     assert code == 0, err
     said = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert len(said) == 1 and words in said[0] and "defaults" in said[0], said
@@ -131,8 +141,46 @@ def test_config_names_agree_with_the_scene_registries():
 
 @pytest.mark.parametrize("group, prog", [(cli, "svgen"), (svtrain, "svtrain")])
 def test_version(group, prog):
+    """Issue #25 item 3: the package version from its metadata, the code digest and git describe as detail."""
+    import importlib.metadata as md
+
+    from svcore.versions import code_digest
+
     code, out, _ = call(group, prog, ["--version"])
-    assert code == 0 and out.strip() == f"{prog} {version()}" and version() not in ("", "unknown")
+    assert code == 0 and out.startswith(f"{prog} {md.version('svgen')} (code {code_digest()[:12]}"), out
+    assert version() == f"{md.version('svgen')} (code {code_digest()[:12]})" and out.count("\n") == 1
+
+
+def test_the_recorded_version_ignores_edited_data_files_and_names_edited_code(tmp_path):
+    """Issue #25 item 3: `dvc exp run -S` edits params.yaml (and dvc.lock): what stores and runs record must not
+    call that modified code; an edited source file changes the recorded code digest."""
+    import shutil
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    for pkg in ("svcore", "pipeline", "materials", "train"):
+        shutil.copytree(root / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(root / "params.yaml", tmp_path / "params.yaml")
+    git = ["git", "-c", "user.name=t", "-c", "user.email=t@t", "-c", "commit.gpgsign=false"]
+    for cmd in (["init", "-q"], ["add", "-A"], ["commit", "-qm", "x"]):
+        subprocess.run(git + cmd, cwd=tmp_path, check=True, capture_output=True)
+    show = "from svcore.versions import library_versions as v; import json; print(json.dumps(v()))"
+
+    def recorded() -> dict:
+        r = subprocess.run([sys.executable, "-c", show], cwd=tmp_path, capture_output=True, text=True,
+                           env={**__import__("os").environ, "PYTHONPATH": str(tmp_path)})
+        assert r.returncode == 0, r.stderr[-300:]
+        return __import__("json").loads(r.stdout)
+
+    clean = recorded()
+    with open(tmp_path / "params.yaml", "a") as f:  # what `dvc exp run -S` does
+        f.write("# an experiment\n")
+    assert recorded() == clean and "dirty" not in clean["svgen"], clean["svgen"]
+    with open(tmp_path / "svcore" / "seeds.py", "a") as f:
+        f.write("# edited\n")
+    edited = recorded()
+    assert edited["svgen_code"] != clean["svgen_code"] and edited["svgen"] != clean["svgen"]
+    assert edited["svgen_package"] == clean["svgen_package"]
 
 
 def test_core_and_cli_import_no_heavy_library():
@@ -154,3 +202,43 @@ def test_progress_is_silent_when_stderr_is_not_a_terminal(monkeypatch):
     assert progress(3, "x").disable
     monkeypatch.setenv("SVGEN_PROGRESS", "1")
     assert not progress(3, "x").disable
+
+
+@pytest.mark.parametrize("group, prog", [(cli, "svgen"), (svtrain, "svtrain")])
+def test_bare_command_prints_the_normal_help_and_exits_0(group, prog):
+    """Issue #25 item 5: no arguments is a request for help (click's no_args_is_help), not a one-line error."""
+    code, out, err = call(group, prog, [])
+    assert code == 0 and err == "", err
+    assert out.startswith(f"Usage: {prog} [OPTIONS] COMMAND") and "\nCommands:\n" in out and out.count("\n") > 8
+
+
+@pytest.mark.parametrize("value, words, hint", [("abc", "train.optim.lr must be a number, got 'abc'", False),
+                                                ('"1e-3"', "train.optim.lr must be a number, got '1e-3'", True),
+                                                ("yes please", "train.optim.compile_loss must be true or false", False)])
+def test_a_wrong_type_names_the_expected_type_and_mentions_quotes_only_when_quoted(value, words, hint):
+    """Issue #25 item 6: `--set optim.lr=abc` quoted nothing; the quoting hint is for a quoted number only."""
+    key = "optim.compile_loss" if "compile" in words else "optim.lr"
+    code, _, err = call(svtrain, "svtrain", ["fit", "--set", f"{key}={value}", "--print-config"])
+    assert code == 2 and words in err and err.count("\n") == 1, err
+    assert ("quoted" in err) == hint, err
+
+
+#: a progress bar on a pseudo-terminal (on by tqdm's own detection), in a fresh process: tqdm reads its TQDM_*
+#: variables when it is imported
+_BAR_ON_A_TTY = ("import os, sys; m, s = os.openpty(); sys.stderr = os.fdopen(s, 'w'); "
+                 "from svcore.progress import progress; b = progress(3, 'x'); "
+                 "print(bool(b.disable), getattr(b, 'smoothing', ''), getattr(b, 'mininterval', ''))")
+
+
+@pytest.mark.parametrize("env, shown", [({}, "False 0.1 0.1"), ({"TQDM_DISABLE": "1"}, "True"),
+                                        ({"TQDM_DISABLE": "1", "SVGEN_PROGRESS": "1"}, "True"),
+                                        ({"TQDM_SMOOTHING": "0.5", "TQDM_MININTERVAL": "2"}, "False 0.5 2.0"),
+                                        ({"SVGEN_NO_PROGRESS": "1"}, "True")])
+def test_progress_honours_tqdms_own_environment_variables(env, shown):
+    """Issue #25 item 9: TQDM_DISABLE=1 (and any TQDM_<argument>) wins; the SVGEN switches stay as aliases."""
+    import os
+
+    base = {k: v for k, v in os.environ.items() if not k.startswith(("TQDM_", "SVGEN_NO_PROGRESS", "SVGEN_PROGRESS"))}
+    r = subprocess.run([sys.executable, "-c", _BAR_ON_A_TTY], capture_output=True, text=True, env={**base, **env})
+    assert r.returncode == 0, r.stderr[-300:]
+    assert r.stdout.startswith(shown), (env, r.stdout)

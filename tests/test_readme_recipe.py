@@ -27,7 +27,8 @@ def recipe_overrides() -> dict[str, object]:
     return {k: yaml.safe_load(v) for k, v in (s.split("=", 1) for s in sets)}
 
 
-def test_paper_recipe_resolves_to_the_paper_scale(tmp_path):
+def recipe_params(tmp_path) -> Path:
+    """params.yaml with the recipe's -S values applied as DVC applies them."""
     params = yaml.safe_load((ROOT / "params.yaml").read_text())
     for key, value in recipe_overrides().items():
         node = params
@@ -38,7 +39,11 @@ def test_paper_recipe_resolves_to_the_paper_scale(tmp_path):
         node[leaf] = value
     path = tmp_path / "params.yaml"
     path.write_text(yaml.safe_dump(params))
+    return path
 
+
+def test_paper_recipe_resolves_to_the_paper_scale(tmp_path):
+    path = recipe_params(tmp_path)
     sample = build(SampleConfig, params_file=path)
     blend = build(BlendConfig, params_file=path)
     render = build(RenderConfig, params_file=path)
@@ -50,3 +55,34 @@ def test_paper_recipe_resolves_to_the_paper_scale(tmp_path):
     assert (train.optim.lr, train.optim.iterations, train.data.crop) == (2e-5, 400_000, 256)
     assert train.optim.schedule == "constant" and train.optim.grad_clip == 0  # the paper's optimiser, unchanged
     assert train.optim.normal_l2 == 0 and train.optim.map_l1 == 0  # and the paper's loss: renderings only
+
+
+def _flat(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {prefix + k: v})
+    return out
+
+
+def test_the_paper_presets_are_the_one_source_of_the_recipes_figures(tmp_path):
+    """Issue #25 item 15: each stage's `paper` config preset and the README recipe set the same values (the
+    sample preset said 12 variants per material, the recipe 36), and the --per-preset help quotes no other."""
+    path = recipe_params(tmp_path)
+    for cls in (SampleConfig, BlendConfig, RenderConfig):
+        recipe = _flat(build(cls, params_file=path).as_dict())
+        paper = _flat(build(cls, "paper").as_dict())
+        for key in _flat(cls.PRESETS["paper"]):
+            assert recipe[key] == paper[key], f"{cls.SECTION}.{key}: recipe {recipe[key]}, paper preset {paper[key]}"
+    train_recipe, train_paper = _flat(resolve(None, path).as_dict()), _flat(resolve("paper").as_dict())
+    for key in _flat(__import__("train.config").config.Config.PRESETS["paper"]):
+        assert train_recipe[key] == train_paper[key], f"train.{key}"
+    doc = " ".join(SampleConfig.model_fields["per_preset"].description.split())
+    assert all(int(n) == SampleConfig.PRESETS["paper"]["per_preset"] for n in re.findall(r"(\d+) each", doc)), doc
+
+
+def test_the_pipeline_duration_is_quoted_once():
+    """Issue #25 item 15: params.yaml's header said about 15 minutes for a fresh `dvc repro`, the README 5: the
+    figure lives in the README beside its measurement, the header points there."""
+    header = "".join(line for line in (ROOT / "params.yaml").read_text().splitlines(True) if line.startswith("#"))
+    assert not re.search(r"\d+\s*(minutes|min\b|hours)", header), header
+    assert re.search(r"takes about \d+ minutes", " ".join((ROOT / "README.md").read_text().split()))

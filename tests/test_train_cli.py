@@ -68,6 +68,72 @@ def test_predict_png_and_exr(run_dir, tmp_path):
         np.testing.assert_allclose(np.linalg.norm(n, axis=-1), 1, atol=1e-4)
 
 
+def test_predict_reads_an_rgba_exr_like_its_rgb(run_dir, tmp_path, caplog):
+    """Issue #25 item 10: RGBA is the EXR renderers and editors write most; its alpha is dropped (said when it is
+    not opaque) and the prediction equals that of the same RGB image."""
+    import logging
+
+    import OpenEXR
+
+    img = np.random.default_rng(1).uniform(0.05, 0.6, (40, 40, 3)).astype(np.float32)
+    write_exr(tmp_path / "photo_rgb.exr", img)
+    for name, alpha in (("photo_rgba.exr", 1.0), ("photo_alpha.exr", 0.5)):
+        rgba = np.concatenate([img, np.full((40, 40, 1), alpha, np.float32)], axis=-1)
+        with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                          {"RGBA": rgba}) as f:
+            f.write(str(tmp_path / name))
+    maps = {}
+    for name in ("photo_rgb.exr", "photo_rgba.exr", "photo_alpha.exr"):
+        caplog.clear()
+        with caplog.at_level(logging.WARNING):
+            code, out, err = run("predict", tmp_path / name, "--checkpoint", run_dir, "--out", tmp_path / (name + "_m"),
+                                 "--size", 32)
+        assert code == 0, err
+        said = " ".join(r.getMessage() for r in caplog.records)
+        assert ("alpha channel is not opaque" in said) == (name == "photo_alpha.exr"), said
+        maps[name] = read_exr(tmp_path / (name + "_m") / "diffuse.exr")
+    np.testing.assert_array_equal(maps["photo_rgba.exr"], maps["photo_rgb.exr"])
+    np.testing.assert_array_equal(maps["photo_alpha.exr"], maps["photo_rgb.exr"])
+
+
+def test_a_runs_config_yaml_is_a_params_file_that_reproduces_it(run_dir, tmp_path):
+    """Issue #25 item 2: `svtrain fit --params RUN/config.yaml` resolves to exactly the run's config (levels 3 of
+    SMALL, not the preset's 7), with nothing said about a missing section."""
+    saved = (run_dir / "config.yaml").read_text()
+    code, out, err = run("fit", "--params", run_dir / "config.yaml", "--print-config")
+    assert code == 0 and err == "", err
+    assert out == saved and "levels: 3" in out
+    (tmp_path / "other.yaml").write_text("sample:\n  seed: 1\n")  # another command's section only
+    code, out, err = run("fit", "--params", tmp_path / "other.yaml", "--print-config")
+    assert code == 2 and "has no 'train' section (it has sample)" in err and err.count("\n") == 1, err
+
+
+def test_plain_resume_refuses_other_data_or_config_and_says_what_changed(run_dir, tmp_path, caplog):
+    """Issue #25 item 1: a plain `svtrain fit --out RUN` continues RUN only on the same data and config (more
+    iterations allowed); otherwise one line names the change and points to --no-resume. Without a store it says
+    that it trains on the synthetic demo source."""
+    import logging
+    import shutil
+
+    run_ = tmp_path / "run"
+    shutil.copytree(run_dir, run_)
+    before = {f: (run_ / f).read_text() for f in ("provenance.json", "run.json", "config.yaml")}
+    for extra, words in ((["--set", "data.synthetic_seed=5"], "data the synthetic demo source"),
+                         (["--set", "optim.lr=0.01"], "optim.lr 0.001 -> 0.01"),
+                         (["--set", "model.levels=2"], "model.levels 3 -> 2")):
+        code, out, err = run("fit", "--out", run_, "--iterations", 4, *SMALL, *extra)
+        assert code == 2 and words in err and "--no-resume" in err and err.count("\n") == 1, err
+        assert {f: (run_ / f).read_text() for f in before} == before  # refused before anything is rewritten
+    code, out, err = run("fit", "--out", run_, "--iterations", 4, *SMALL, "--set", "data.synthetic_seed=5",
+                         "--no-resume")
+    assert code == 0 and json.loads(out.strip().splitlines()[-1])["resumed_from"] is None, err
+    with caplog.at_level(logging.WARNING):
+        code, out, err = run("fit", "--out", run_, "--iterations", 5, *SMALL, "--set", "data.synthetic_seed=5")
+    assert code == 0 and json.loads(out.strip().splitlines()[-1])["resumed_from"] == 4, err
+    said = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert any("training on the synthetic demo source" in m for m in said), said
+
+
 def test_png_is_linearised(tmp_path):
     from train.predict import read_photo
 

@@ -95,7 +95,8 @@ def test_killed_rank_stops_with_one_line_and_resume_continues_exactly(ddp_run, t
     t_kill = time.time()
     code, out, err = finish(p, timeout=120)  # a hang fails here
     assert code != 0
-    lines = [ln for ln in err.splitlines() if ln.strip()]
+    # the failure is one line; what rank 0 logged before it (the synthetic demo source note) is not part of it
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("WARNING svgen.")]
     assert len(lines) == 1, err
     assert lines[0].startswith("svtrain: error: rank 1 of 2 was killed by SIGKILL"), err
     assert "step 2" in lines[0] and "resume" in lines[0], err

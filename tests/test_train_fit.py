@@ -6,6 +6,7 @@ import json
 import pytest
 import torch
 
+from svcore.errors import ConfigError
 from train.config import resolve
 from train.fit import build, fit, lr_at, train_step
 from train.loss import make_loss
@@ -176,6 +177,7 @@ def test_resume_if_unchanged_continues_only_the_same_run(src, tmp_path):
     assert restarted["resumed_from"] is None
     fresh = fit(cfg, tmp_path / "c", source=src, resume=False)
     assert restarted["loss_final"] == fresh["loss_final"] == same["loss_final"]
-    # the plain resume continues what it finds (the model config matches): the new flag is what tells them apart
+    # the plain resume refuses it, naming what changed (issue #25 item 1); resume=False starts over
     fit(other, tmp_path / "d", source=src, stop_after=3)
-    assert fit(cfg, tmp_path / "d", source=src)["resumed_from"] == 3
+    with pytest.raises(ConfigError, match=r"optim.lr 0.0005 -> 0.001\).*--no-resume"):
+        fit(cfg, tmp_path / "d", source=src)

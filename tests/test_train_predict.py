@@ -117,3 +117,20 @@ def test_linear_png_input_space(run_dir, tmp_path):
     # input.png is the network input sRGB-encoded: linear mode saw 0.2 (encoded ~0.48), auto saw decode(0.2) = 0.033
     assert seen["linear"] == pytest.approx(float(srgb_encode(np.float32(stored))), abs=2 / 255)
     assert seen["auto"] == pytest.approx(stored, abs=2 / 255)
+
+
+def test_predict_refuses_an_existing_maps_folder_unless_forced(run_dir, tmp_path, rng):
+    """Issue #25 item 8: one overwrite rule: an existing output is refused (one line naming --force) before any
+    work; --force writes over it; an empty folder holds nothing to lose."""
+    write_exr(tmp_path / "p.exr", photo(rng, 64, 64))
+    out = tmp_path / "maps"
+    out.mkdir()  # empty: not an existing output
+    code, _, err = run("predict", tmp_path / "p.exr", "--checkpoint", run_dir, "--out", out, "--size", 64)
+    assert code == 0, err
+    (out / "diffuse.exr").write_bytes(b"kept")
+    code, stdout, err = run("predict", tmp_path / "p.exr", "--checkpoint", run_dir, "--out", out, "--size", 64)
+    assert code == 2 and err.count("\n") == 1 and f"output {out} already exists" in err and "--force" in err, err
+    assert (out / "diffuse.exr").read_bytes() == b"kept"
+    code, _, err = run("predict", tmp_path / "p.exr", "--checkpoint", run_dir, "--out", out, "--size", 64, "--force")
+    assert code == 0, err
+    assert read_exr(out / "diffuse.exr").shape == (64, 64, 3)

@@ -1,0 +1,1 @@
+"""svtrain: the single-image SVBRDF capture network, its training, evaluation and prediction."""

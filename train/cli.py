@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from storage.options import storage_option
-from svcore.cli import config_command, run_cli, version_option
+from svcore.cli import config_command, force_option, run_cli, version_option
 from svcore.log import configure, get_logger
 
 from .config import Config
@@ -81,7 +81,7 @@ svtrain.add_command(fit)
 @click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True, help="Run directory or checkpoint file.")
 @click.option("--suite", default="heldout", show_default=True, help="Evaluation suite: heldout (held-out presets), stress (per category of a `svgen stress` renders store given by --store) or all (every view of --store, e.g. imported 2018 strips).")
 @click.option("--store", default=None, help="Evaluate on this renders store instead of the training one.")
-@click.option("--limit", type=int, default=None, help="Evaluate at most this many samples.")
+@click.option("--limit", type=click.IntRange(min=1), default=None, help="Evaluate at most this many samples.")
 @click.option("--out", default=None, help="Output directory (default: the run directory).")
 @click.option("--train-store", default=None,
               help="The run's training store, if it moved (default: found through the run's run.json).")
@@ -118,19 +118,20 @@ def eval_extra(ckpt, params_file, out, device):
 @click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True, help="Run directory or checkpoint file.")
 @click.option("--out", default=None, help="Output folder: the maps of a single photo, or one sub-folder per photo "
               "(default: <photo name>_maps beside each photo, <folder>_maps for a folder).")
-@click.option("--size", type=int, default=256, show_default=True,
+@click.option("--size", type=click.IntRange(min=1), default=256, show_default=True,
               help="Prediction size: a multiple of the network's stride (2^levels); the paper captures at 256.")
 @click.option("--input-space", type=click.Choice(["auto", "srgb", "linear"]), default="auto", show_default=True,
               help="auto: PNG/JPEG are sRGB, EXR linear. The 2018 paper's PNG data are linear: use linear for them.")
-@click.option("--batch", "batch_size", type=int, default=8, show_default=True, help="Photos per network call.")
+@click.option("--batch", "batch_size", type=click.IntRange(min=1), default=8, show_default=True, help="Photos per network call.")
 @click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
-def predict(photos, ckpt, out, size, input_space, batch_size, device):
+@force_option("maps folders")
+def predict(photos, ckpt, out, size, input_space, batch_size, device, force):
     """Estimate normal, diffuse, roughness and specular maps from flash PHOTOS (files or folders; PNG/JPEG/EXR)."""
     from svcore.errors import SvgenError
 
     from .predict import predict_many
 
-    res = predict_many(list(photos), ckpt, out, size, input_space, batch_size, device)
+    res = predict_many(list(photos), ckpt, out, size, input_space, batch_size, device, force=force)
     for d in res.written:
         click.echo(str(d))
     if len(res.failed) == 1 and not res.written:

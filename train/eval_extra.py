@@ -27,6 +27,14 @@ def extra_stores(params_file: str | Path) -> list[str]:
     return stores
 
 
+def limit_of(params_file: str | Path) -> int | None:
+    """``eval.limit``: views per store (None when absent), bounded like ``svtrain eval --limit`` (at least 1)."""
+    limit = (read_yaml(params_file).get(SECTION) or {}).get("limit")
+    if limit is not None and (type(limit) is not int or limit < 1):
+        raise ConfigError(f"{params_file}: {SECTION}.limit must be an integer >= 1 (or null), got {limit!r}")
+    return limit
+
+
 def names_of(stores: list[str]) -> list[str]:
     """One folder name per store: its file name without ``.zarr`` (numbered where two would collide)."""
     names = []
@@ -44,8 +52,7 @@ def run(checkpoint: str | Path, params_file: str | Path, out_dir: str | Path, de
     """Evaluate ``checkpoint`` on every extra store; returns {name: {column: model RMSE}} (also eval_metrics.json)."""
     from . import dvc_metrics
 
-    stores = extra_stores(params_file)
-    limit = (read_yaml(params_file).get(SECTION) or {}).get("limit")
+    stores, limit = extra_stores(params_file), limit_of(params_file)
     out = Path(out_dir)
     (out / "stores").mkdir(parents=True, exist_ok=True)
     table = {}

@@ -9,8 +9,8 @@ Devices and precision come from ``cfg.compute`` (train/device.py); under a data-
 one rank (train/distributed.py) and rank 0 alone writes. :class:`Trainer` is the loop itself: ``fit`` adds
 checkpoints, progress and outputs around it, and the benchmarks iterate the same object.
 
-Outputs in the run directory: ``config.yaml`` (resolved), ``checkpoint.pt`` (full state),
-``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
+Outputs in the run directory: ``config.yaml`` (the resolved config as a params file with a ``train:`` section),
+``checkpoint.pt`` (full state), ``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
 versions), ``metrics.json`` (everything), ``fit_metrics.json`` (the few numbers `dvc metrics` shows), ``loss.csv``,
 ``loss.png``.
 """
@@ -25,8 +25,8 @@ from typing import Iterator
 
 import numpy as np
 import torch
-import yaml
 
+from svcore.config import params_text
 from svcore.errors import ConfigError, SvgenError
 from svcore.log import get_logger
 from svcore.progress import progress
@@ -291,9 +291,11 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None
     Args:
         cfg: validated config.
         out_dir: run directory (created).
-        resume: continue from ``out_dir/checkpoint.pt`` when it exists; ``"if-unchanged"``: only when the
-            checkpoint was trained from this config, data and code (:func:`train.runinfo.resume_key`), else start
-            over, saying so (DVC's fit stage: its checkpoint persists across runs with other inputs).
+        resume: continue from ``out_dir/checkpoint.pt`` when it exists, refusing (ConfigError) a checkpoint of
+            other data or another config than this one but ``optim.iterations`` and machine settings
+            (:func:`train.runinfo.resume_changes`); ``"if-unchanged"``: only when the checkpoint was trained from
+            this config, data and code (:func:`train.runinfo.resume_key`), else start over, saying so (DVC's fit
+            stage: its checkpoint persists across runs with other inputs).
         source: a data source (default: ``open_source(cfg.data)``).
         stop_after: stop after this many steps of *this call* (tests simulate an interruption),
             checkpointing first.
@@ -310,12 +312,14 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None
     global_batch, rank_batch = world.batches(o.batch_size, cfg.compute.global_batch)  # uneven: refused before writing
     # open the data first: a bad store must fail before the run directory exists
     src = source if source is not None else open_source(cfg.data)
+    if source is None and cfg.data.store is None and world.main:
+        log.warning("no data.store (--store or the params file): training on the synthetic demo source (%d "
+                    "generated samples), not on rendered data", cfg.data.synthetic_samples)
     train_idx, test_idx = split_for(src, cfg.data)
     runinfo.check_run(cfg, out_dir, len(train_idx), global_batch, rank_batch, place.device, world.local_size)
     out = Path(out_dir)
     if world.main:
         out.mkdir(parents=True, exist_ok=True)
-        runinfo.record(out, cfg.data.store)
     if o.threads:
         torch.set_num_threads(o.threads)
     with process_group(world, place.device):
@@ -335,7 +339,8 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
     trainer = Trainer(cfg, place, world)
     start, losses = 0, []
     state = None
-    key = runinfo.resume_key(cfg, provenance(cfg, src)["data"])
+    data = provenance(cfg, src)["data"]
+    key = runinfo.resume_key(cfg, data)
     if resume and world.main and ckpt_path.exists():
         state = checkpoint.load(ckpt_path)
         if resume == "if-unchanged" and state.get("resume_key") != key:
@@ -343,20 +348,25 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
             state = None
     state = broadcast(state, world)  # rank 0 reads, every rank continues from it (no shared file system needed)
     if state is not None:
+        changed = runinfo.resume_changes(state, cfg, data)  # every rank holds the state: all refuse alike
+        if changed:
+            raise ConfigError(f"{ckpt_path} is a run of other data or config ({'; '.join(changed)}); pass --no-resume "
+                              f"to start over there, or use another --out")
         trainer.load(state, out)
         start, losses = int(state["step"]), list(state["losses"])
         if world.main:
             log.info("resuming %s at step %d", out, start)
     resumed_from = start if state is not None else None
-    if world.main:
-        (out / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
+    if world.main:  # the checkpoint is continued or replaced: only now do the run's records change
+        runinfo.record(out, cfg.data.store)
+        (out / "config.yaml").write_text(params_text(cfg))  # a params file: `svtrain fit --params` reruns it
         (out / "provenance.json").write_text(json.dumps(provenance(cfg, src), indent=2) + "\n")
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
 
     def save(step: int) -> None:
         st = trainer.state(step, losses)  # every rank (gathers the ranks' RNG states)
-        st["resume_key"] = key
+        st["resume_key"], st["data"] = key, data
         st["heldout"], st["train_clock"] = heldout_rows, clock.totals()  # a resumed run continues from them
         if world.main:
             checkpoint.save(ckpt_path, st)

@@ -28,6 +28,7 @@ from torch.nn import functional as F
 from svcore.errors import ConfigError, SvgenError
 from svcore.image_io import ImageError, read_exr, read_ldr, srgb_decode, srgb_encode, write_exr, write_png
 from svcore.log import get_logger
+from svcore.outputs import refuse_existing
 from svcore.progress import progress
 
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
@@ -177,19 +178,20 @@ class Prediction:
 
 
 def svgen_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
+    """The running svgen code: package version and source digest (:func:`svcore.versions.svgen_version`)."""
+    from svcore.versions import svgen_version as version
 
-    try:
-        return version("svgen")
-    except PackageNotFoundError:
-        return "unknown"
+    return version()
 
 
 @torch.no_grad()
 def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str | Path | None = None,
                  size: int = DEFAULT_SIZE, input_space: str = "auto", batch_size: int = 8,
-                 device: str = "cpu", show_progress: bool | None = None) -> Prediction:
+                 device: str = "cpu", show_progress: bool | None = None, force: bool = False) -> Prediction:
     """Predict maps for photos and folders of photos, ``batch_size`` photos per network call.
+
+    A photo's output folder that already holds files is refused before any work unless ``force``
+    (:func:`svcore.outputs.refuse_existing`, the rule of every command).
 
     Returns:
         the folders written and the photos that failed (each with its one-line reason); the caller decides the
@@ -204,6 +206,7 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
     dev = resolve_device(device)
     photos = collect_photos(inputs)
     dirs = output_dirs(photos, inputs, out)
+    refuse_existing(dirs, force)
     model, cfg = load_model(checkpoint_path)
     check_size(size, 2 ** cfg.model.levels)
     model.to(dev)
@@ -253,9 +256,9 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
 
 
 def predict(photo: str | Path, checkpoint_path: str | Path, out_dir: str | Path, size: int = DEFAULT_SIZE,
-            input_space: str = "auto") -> list[Path]:
+            input_space: str = "auto", force: bool = False) -> list[Path]:
     """Run the network on one photo and write its maps into ``out_dir``; returns the written files."""
-    res = predict_many([photo], checkpoint_path, out_dir, size, input_space, show_progress=False)
+    res = predict_many([photo], checkpoint_path, out_dir, size, input_space, show_progress=False, force=force)
     if res.failed:
         raise ImageError(res.failed[0][1])
     return sorted(p for p in Path(out_dir).iterdir() if p.is_file())

@@ -12,6 +12,7 @@ import json
 import os
 from pathlib import Path
 
+from svcore import versions
 from svcore.errors import StoreError
 
 RUN_FILE = "run.json"
@@ -31,18 +32,10 @@ def record(run_dir: str | os.PathLike, store: str | None) -> None:
     os.replace(tmp, run / RUN_FILE)
 
 
-#: the packages whose source decides a run's result (``svtrain fit`` reads stores through pipeline's readers).
-CODE_PACKAGES = ("svcore", "pipeline", "materials", "train")
-
-
-def code_digest() -> str:
-    """sha256 of the source of :data:`CODE_PACKAGES` (file names and bytes): the code half of :func:`resume_key`."""
-    root = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256()
-    for pkg in CODE_PACKAGES:
-        for f in sorted((root / pkg).rglob("*.py")):
-            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
-    return h.hexdigest()
+#: the packages whose digest is the code half of :func:`resume_key` (one list with the recorded versions)
+CODE_PACKAGES = versions.CODE_PACKAGES
+#: sha256 of the source of :data:`CODE_PACKAGES` (svcore.versions: what stores and runs record as the code)
+code_digest = versions.code_digest
 
 
 def resume_key(cfg, data: dict) -> str:
@@ -56,9 +49,49 @@ def resume_key(cfg, data: dict) -> str:
     """
     conf = cfg.to_dict()
     conf["data"] = {k: v for k, v in conf["data"].items() if k not in ("store", "workers")}
-    ident = {k: v for k, v in data.items() if k not in ("store", "store_resolved")}
+    ident = data_identity(data)
     blob = json.dumps({"config": conf, "data": ident, "code": code_digest()}, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()
+
+
+#: config keys a plain resume may see changed: ``optim.iterations`` (continue a run further), the store's spelling
+#: (its identity is compared instead), machine settings that change no step's result, and the batch per process
+#: (the global batch, which decides the data order, is checked by train.fit.Trainer.load).
+RESUMABLE_KEYS = frozenset({"optim.iterations", "data.store", "data.workers", "optim.threads", "compute.device",
+                            "compute.nproc", "compute.global_batch", "optim.batch_size"})
+
+
+def _flat(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {prefix + k: v})
+    return out
+
+
+def data_identity(data: dict) -> dict:
+    """What identifies a run's training data (:func:`train.fit.provenance`'s ``data`` less the store's spelling)."""
+    return {k: v for k, v in data.items() if k not in ("store", "store_resolved")}
+
+
+def describe_data(data: dict | None) -> str:
+    """A run's training data in a few words: a store by path, kind, size and config hash, or the synthetic source."""
+    if not data:
+        return "unrecorded data"
+    if "synthetic" in data:
+        return "the synthetic demo source"
+    return (f"store {data.get('store')} ({data.get('kind')}, {data.get('n')} samples, config hash "
+            f"{data.get('config_hash')})")
+
+
+def resume_changes(state: dict, cfg, data: dict) -> list[str]:
+    """What differs between a checkpoint and this run beyond :data:`RESUMABLE_KEYS`: ``key old -> new`` for each
+    config key, and the data when its identity differs (checkpoints from before it was recorded: config only)."""
+    old, new = _flat(state["config"]), _flat(cfg.to_dict())
+    changed = [f"{k} {old.get(k)!r} -> {new.get(k)!r}" for k in sorted(set(old) | set(new))
+               if k not in RESUMABLE_KEYS and old.get(k) != new.get(k)]
+    if "data" in state and data_identity(state["data"]) != data_identity(data):
+        changed.insert(0, f"data {describe_data(state['data'])} -> {describe_data(data)}")
+    return changed
 
 
 def run_dir_of(checkpoint_path: str | os.PathLike) -> Path:

@@ -160,15 +160,10 @@ def _read_png16(p: Path) -> np.ndarray:
 
 
 def _read_exr(p: Path) -> np.ndarray:
-    import OpenEXR
+    """svcore's one EXR reader (RGB, RGBA with alpha dropped, RG, or one channel), its errors as the importer's."""
+    from svcore.image_io import ImageError, read_exr_channels
 
-    with OpenEXR.File(str(p), separate_channels=True) as f:
-        ch = {k: np.asarray(v.pixels, np.float32) for k, v in f.channels().items()}
-    if all(c in ch for c in "RGB"):
-        return np.stack([ch[c] for c in "RGB"], axis=-1)
-    if "R" in ch and "G" in ch:
-        return np.stack([ch["R"], ch["G"]], axis=-1)
-    for c in ("Y", "R", "G", "B"):
-        if c in ch:
-            return ch[c][..., None]
-    raise ImportInputError(f"{p} has no R, G, B or Y channels (has {', '.join(sorted(ch))})")
+    try:
+        return read_exr_channels(p)
+    except ImageError as e:
+        raise ImportInputError(str(e)) from None
