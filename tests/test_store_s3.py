@@ -38,9 +38,55 @@ def _env():
     return {**os.environ, "SVGEN_NO_PROGRESS": "1", "PYTHONPATH": os.getcwd()}
 
 
+#: the only fields that may differ between a store written to S3 and the same run written locally, all in the
+#: group's attributes: paths of the run's inputs, recorded relative to the output store (storage.store.recorded_path),
+#: which an ``s3://`` output cannot be, so there they are absolute. Every array's zarr.json must be equal.
+PLACE_DEPENDENT = {
+    "path": "an input store's path (render, blend: attributes 'inputs' / 'source')",
+    "source": "an imported material's source folder (import: 'materials')",
+    "sources": "import's source folders ('import')",
+    "stores": "the stores an imported sample re-reads ('imported')",
+}
+
+
+def _strip_places(meta: dict) -> dict:
+    """A zarr.json without the fields that name places (:data:`PLACE_DEPENDENT`), at any depth of its attributes."""
+    if isinstance(meta, dict):
+        return {k: _strip_places(v) for k, v in meta.items() if k not in PLACE_DEPENDENT}
+    if isinstance(meta, list):
+        return [_strip_places(v) for v in meta]
+    return meta
+
+
+def assert_same_metadata(s3, url: str, local: Path):
+    """Every array's zarr.json (dimension_names, CF attributes, codecs, shards) and the group's zarr.json with its
+    consolidated metadata equal the local store's, apart from :data:`PLACE_DEPENDENT`; and xarray, through
+    s3fs against the server, decodes every variable of the S3 store exactly as it decodes the local copy."""
+    import xarray as xr
+
+    fs, root = s3.fs(), url.split("://", 1)[1]
+    metas = sorted(str(p.relative_to(local)) for p in local.rglob("zarr.json"))
+    assert len(metas) > 1 and metas == sorted(k[len(root) + 1:] for k in fs.find(root) if k.endswith("zarr.json"))
+    for k in metas:
+        got, want = json.loads(fs.cat_file(f"{root}/{k}")), json.loads((local / k).read_text())
+        if k != "zarr.json":
+            assert got == want, k  # an array: nothing may differ
+            assert got["dimension_names"] and got["attributes"], k
+        assert _strip_places(got) == _strip_places(want), k
+    ds = xr.open_zarr(url, storage_options={"endpoint_url": s3.endpoint})
+    dl = xr.open_zarr(local)
+    assert sorted(ds.data_vars) == sorted(dl.data_vars) and ds.sizes == dl.sizes
+    for name in dl.data_vars:
+        a, b = ds[name], dl[name]
+        assert a.dims == b.dims and a.attrs == b.attrs and a.dtype == b.dtype, name
+        assert a.encoding.get("scale_factor") == b.encoding.get("scale_factor"), name
+        np.testing.assert_array_equal(a.values, b.values, err_msg=name)
+
+
 def assert_same_store(s3, url: str, local: Path):
-    """Every chunk object equals the local chunk file byte for byte, decoded values agree, manifests are equal,
-    and no marker or lock is left in the bucket."""
+    """Every chunk object equals the local chunk file byte for byte, every zarr.json equals the local one and
+    xarray decodes both alike (:func:`assert_same_metadata`), decoded values agree, manifests are equal, and no
+    marker or lock is left in the bucket."""
     fs, root = s3.fs(), url.split("://", 1)[1]
     man = json.loads(fs.cat_file(f"{root}/{MANIFEST}"))
     assert man == json.loads((local / MANIFEST).read_text())
@@ -56,6 +102,7 @@ def assert_same_store(s3, url: str, local: Path):
     assert sorted(g) == sorted(gl)
     for name in gl:
         np.testing.assert_array_equal(g[name][:], gl[name][:], err_msg=name)
+    assert_same_metadata(s3, url, local)
 
 
 def test_sample_to_s3_equals_local(s3, tmp_path):
