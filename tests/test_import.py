@@ -56,6 +56,14 @@ def test_ambientcg_gl_and_dx_give_the_same_normals(tmp_path, rng):
     assert np.abs(st2.maps(recs2["Both"][0]).normal - gl).max() < 4 * Q8
 
 
+def test_bumpy_normals_fixture_draws_from_its_rng():
+    """The fixture's rng is live (issue #28): two draws give two different normal maps, one seed the same map."""
+    a, b = bumpy_normals(16, np.random.default_rng(1)), bumpy_normals(16, np.random.default_rng(2))
+    assert np.abs(a - b).max() > 0.1
+    np.testing.assert_array_equal(a, bumpy_normals(16, np.random.default_rng(1)))
+    np.testing.assert_allclose(np.linalg.norm(a, axis=-1), 1, atol=1e-6)
+
+
 def test_matsynth_metallic_and_height(tmp_path, rng):
     s = 64
     base = rng.random((s, s, 3)) * 0.9 + 0.05
