@@ -211,7 +211,7 @@ def test_stores_record_the_svgen_version_from_git(stores):
 # -- the dataset card ----------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
 def test_every_finished_store_has_its_card(stores, name, svgen_cli):
-    from storage.card import card_text
+    from storage.store import card_text
 
     path = stores / f"{name}.zarr"
     text = (path / "README.md").read_text()
