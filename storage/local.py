@@ -48,6 +48,7 @@ import json
 import os
 import re
 import shutil
+import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -207,6 +208,37 @@ def array_layout(spec: ArraySpec, n: int, chunk: int) -> dict:
             "dtype": spec.dtype, "compressors": _compressors(), "fill_value": 0}
 
 
+def create_arrays(g: zarr.Group, arrays: dict[str, ArraySpec], n: int, chunk: int) -> None:
+    """Create every array of a new store in ``g``: the one place that does, for local and ``s3://`` stores alike,
+    so both carry the same layout, ``dimension_names`` and CF attributes (issue #28: S3 stores once had neither).
+
+    Args:
+        g: the new, empty group.
+        arrays: name -> :class:`ArraySpec`.
+        n: samples of the store.
+        chunk: samples per task (the shard length).
+    """
+    for name, spec in arrays.items():
+        g.create_array(name, **array_layout(spec, n, chunk), dimension_names=spec.dimension_names(name),
+                       attributes=spec.array_attrs())
+
+
+def creation_attrs(kind: str, hash_: str, n: int, chunk: int, arrays: dict[str, ArraySpec], config: dict,
+                   attrs: dict) -> dict:
+    """The group attributes a new store is created with (``complete: false``), for both backends."""
+    return {
+        "svgen": {
+            "kind": kind, "schema_version": SCHEMA_VERSION, "complete": False, "config_hash": hash_,
+            "n": n, "chunk": chunk,
+            "arrays": {k: {"shape": list(v.shape), "dtype": v.dtype, "encoding": v.encoding, "space": v.space}
+                       for k, v in arrays.items()},
+            "versions": _store_versions(),
+        },
+        "config": config,
+        **attrs,
+    }
+
+
 class StoreWriter:
     """Create or resume a partial store for a stage (use as a context manager).
 
@@ -309,20 +341,8 @@ class StoreWriter:
         """Build the empty store under ``.partial.creating`` and rename it to ``.partial`` when whole (atomic)."""
         shutil.rmtree(self.creating, ignore_errors=True)  # a creation cut short by a kill
         g = zarr.open_group(self.creating, mode="w", zarr_format=3)
-        for name, spec in self.arrays.items():
-            g.create_array(name, **array_layout(spec, self.n, self.chunk),
-                           dimension_names=spec.dimension_names(name), attributes=spec.array_attrs())
-        g.attrs.update({
-            "svgen": {
-                "kind": self.kind, "schema_version": SCHEMA_VERSION, "complete": False, "config_hash": self.hash,
-                "n": self.n, "chunk": self.chunk,
-                "arrays": {k: {"shape": list(v.shape), "dtype": v.dtype, "encoding": v.encoding, "space": v.space}
-                           for k, v in self.arrays.items()},
-                "versions": _store_versions(),
-            },
-            "config": self.config,
-            **self.attrs,
-        })
+        create_arrays(g, self.arrays, self.n, self.chunk)
+        g.attrs.update(creation_attrs(self.kind, self.hash, self.n, self.chunk, self.arrays, self.config, self.attrs))
         (self.creating / DONE_DIR).mkdir()
         _kill_hook("create")
         if self.partial.exists():  # a half-created partial of an older svgen (see _started): holds no chunk
@@ -424,6 +444,7 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
     tmp = marker.with_suffix(".tmp")
     tmp.write_text(json.dumps(record, sort_keys=True))
     os.replace(tmp, marker)
+    _pause_hook()
     _kill_hook("chunk")
     if os.environ.get("SVGEN_TEST_ENOSPC_AFTER_CHUNK") == str(c):  # a full disk where no small one can be mounted
         import errno
@@ -480,6 +501,19 @@ def _kill_hook(moment: str) -> None:
         import signal
 
         os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _pause_hook() -> None:
+    """Tests act on a real run at a known moment (stop the S3 server under it): with
+    ``SVGEN_TEST_PAUSE_DIR=<dir>``, the first chunk's writer, right after its marker, creates ``<dir>/paused`` and
+    waits until ``<dir>/resume`` exists (at most 300 s); later chunks run on. Unset: does nothing."""
+    d = os.environ.get("SVGEN_TEST_PAUSE_DIR")
+    if not d or (Path(d) / "resume").exists() or (Path(d) / "paused").exists():
+        return
+    (Path(d) / "paused").touch()
+    deadline = time.monotonic() + 300
+    while not (Path(d) / "resume").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
 
 
 def _fail_once_hook(c: int) -> None:

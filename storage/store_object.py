@@ -134,21 +134,11 @@ class ObjectStoreWriter(S.StoreWriter):
     def _create(self) -> None:
         st = self.loc.zarr_store(read_only=False)
         g = zarr.open_group(st, mode="w", zarr_format=3)  # clears the prefix (a creation cut short)
-        for name, spec in self.arrays.items():
-            g.create_array(name, **S.array_layout(spec, self.n, self.chunk), dimension_names=None)
+        S.create_arrays(g, self.arrays, self.n, self.chunk)
         S._kill_hook("create")
         # the svgen attributes last: until they exist the prefix is a creation cut short, recreated by a rerun
-        g.attrs.update({
-            "svgen": {
-                "kind": self.kind, "schema_version": S.SCHEMA_VERSION, "complete": False, "config_hash": self.hash,
-                "n": self.n, "chunk": self.chunk,
-                "arrays": {k: {"shape": list(v.shape), "dtype": v.dtype, "encoding": v.encoding, "space": v.space}
-                           for k, v in self.arrays.items()},
-                "versions": S._store_versions(),
-            },
-            "config": self.config,
-            **self.attrs,
-        })
+        g.attrs.update(S.creation_attrs(self.kind, self.hash, self.n, self.chunk, self.arrays, self.config,
+                                        self.attrs))
 
     # -- the lock --------------------------------------------------------------------------------
     def _lock(self) -> None:
@@ -264,6 +254,8 @@ def write_chunk_object(url: str, c: int, start: int, data: dict[str, np.ndarray]
             g[name][start:start + len(arr)] = arr
         record = {name: record_of(loc.read_or_none(f"{name}/{S._chunk_key(g[name], c)}")) for name in data}
         loc.write(f"{S.DONE_DIR}/{c}", json.dumps(record, sort_keys=True).encode())
+    S._pause_hook()
+    S._kill_hook("chunk")
 
 
 def _incomplete(url: str) -> str:

@@ -56,13 +56,36 @@ def test_global_track_off_drops_its_parameters_and_still_runs():
     assert count_parameters(off) < count_parameters(on)
     assert not any("to_global" in n or "to_bias" in n or n.startswith(("g0", "out_bias")) for n, _ in
                    off.named_parameters())
-    x = torch.rand(2, 3, 32, 32)
     with torch.no_grad():
-        y = off.eval()(x)
-        # without the track nothing mixes the samples of a batch or feeds a global bias: each sample alone gives the
-        # same output as in the batch (this holds with the track too; the check is that the track-free path runs)
-        torch.testing.assert_close(y[1:], off(x[1:]))
-    assert y.shape == (2, 10, 32, 32)
+        y = off.eval()(torch.rand(2, 3, 32, 32))
+    assert y.shape == (2, 10, 32, 32)  # the track-free path runs; what it computes is checked below
+
+
+@pytest.mark.parametrize("track", [True, False])
+def test_only_the_global_track_feeds_image_statistics_into_the_biases(track):
+    """What tells the arms apart in the output of every normalised layer: instance norm zeroes each channel's
+    spatial mean, so without the track a layer's output mean is its learned shift, the same for every image;
+    with the track it is FC(global vector), which the image's statistics feed (paper §4.2), so two images differ."""
+    from train.config import ModelConfig
+    from train.net import GlobalConv, SVBRDFNet
+
+    net = SVBRDFNet(ModelConfig(base_width=4, max_width=16, levels=4, global_track=track)).eval()
+    means = []
+    hooks = [m.register_forward_hook(lambda _m, _i, out: means.append(out[0].mean((2, 3))))
+             for m in net.modules() if isinstance(m, GlobalConv)]
+    x = torch.rand(2, 3, 32, 32, generator=torch.Generator().manual_seed(0))
+    x[1] = x[1] ** 3 * 0.5  # a darker, higher-contrast second image: other global statistics
+    with torch.no_grad():
+        net(x)
+    for h in hooks:
+        h.remove()
+    assert len(means) > 3
+    # per layer, how far the two images' channel means are apart (float32 instance norm: ~1e-7 when equal)
+    gap = max(float((m[0] - m[1]).abs().max()) for m in means)
+    if track:
+        assert gap > 1e-4, f"with the global track the layer biases ignore the image (gap {gap:.2e})"
+    else:
+        assert gap < 1e-5, f"without the global track a layer's mean still depends on the image (gap {gap:.2e})"
 
 
 def test_l1_arm_has_no_rendering_term():

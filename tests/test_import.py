@@ -56,6 +56,14 @@ def test_ambientcg_gl_and_dx_give_the_same_normals(tmp_path, rng):
     assert np.abs(st2.maps(recs2["Both"][0]).normal - gl).max() < 4 * Q8
 
 
+def test_bumpy_normals_fixture_draws_from_its_rng():
+    """The fixture's rng is live (issue #28): two draws give two different normal maps, one seed the same map."""
+    a, b = bumpy_normals(16, np.random.default_rng(1)), bumpy_normals(16, np.random.default_rng(2))
+    assert np.abs(a - b).max() > 0.1
+    np.testing.assert_array_equal(a, bumpy_normals(16, np.random.default_rng(1)))
+    np.testing.assert_allclose(np.linalg.norm(a, axis=-1), 1, atol=1e-6)
+
+
 def test_matsynth_metallic_and_height(tmp_path, rng):
     s = 64
     base = rng.random((s, s, 3)) * 0.9 + 0.05
@@ -87,6 +95,23 @@ def test_matsynth_metallic_and_height(tmp_path, rng):
     assert rec["preset"] == "metal/steel" and rec["workflow"] == "metallic"
     assert rec["maps"]["basecolor"]["bits"] == 16 and "sRGB" in rec["maps"]["basecolor"]["space"]
     assert rec["maps"]["height"]["space"].startswith("data")
+
+
+def test_fractional_metallic_follows_the_documented_blend(tmp_path, rng):
+    """docs/IMPORT.md's metallic/roughness conversion at fractional metalness: d = b (1 - m), s = 0.04 (1 - m) + b m,
+    at eight metalness values in [0, 1] (8-bit codes, decoded exactly as code / 255), one per 8-pixel band."""
+    s = 64
+    codes = np.array([0, 32, 64, 96, 128, 160, 224, 255])
+    metal = np.repeat(codes / 255, s // len(codes))[None, :].repeat(s, 0)
+    base = rng.random((s, s, 3)) * 0.9 + 0.05
+    matsynth(tmp_path / "src", "alloy", s, base, metal, height_field(s)[0])
+    imp(tmp_path / "src", tmp_path / "m.zarr", size=s)
+    st, recs = by_name(tmp_path / "m.zarr")
+    got = st.maps(recs["alloy"][0])
+    b, m = srgb_decode(np.round(base * 65535) / 65535), metal[..., None]
+    # the expected maps in float64 from the formula; stored as 16-bit codes: within one code plus rounding
+    np.testing.assert_allclose(got.diffuse, b * (1 - m), rtol=0, atol=2 * Q16)
+    np.testing.assert_allclose(got.specular, 0.04 * (1 - m) + b * m, rtol=0, atol=2 * Q16)
 
 
 def test_normal_convention_from_height_agreement(tmp_path):

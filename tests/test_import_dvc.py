@@ -32,8 +32,9 @@ def project(d, sources):
     return d
 
 
-@pytest.mark.skipif(shutil.which("dvc") is None, reason="dvc is not installed")
 def test_dvc_import_stage(tmp_path):
+    if shutil.which("dvc") is None:  # a project requirement: its absence is a failure, not a skip (issue #28)
+        pytest.fail("dvc is not installed: run scripts/setup.sh")
     from storage.svbrdf_store import SVBRDFStore
 
     empty = project(tmp_path / "empty", [])

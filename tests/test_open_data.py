@@ -103,9 +103,15 @@ def test_xarray_decodes_renders_as_svgen_reads_them(stores):
         np.testing.assert_allclose(img, r.image(i), rtol=0, atol=F32)
         row = dict(zip(fields, ds["view"][s, v].values.tolist()))
         assert row == {k: float(x) for k, x in r.view_params(i).as_dict().items()}
-    base = r.base_maps(1)
-    np.testing.assert_allclose(ds["diffuse"][1].values, base.diffuse, rtol=0, atol=F32)
-    np.testing.assert_allclose(ds["normal"][1].values, base.normal, rtol=0, atol=NORMAL_RENORM)
+    # every map of every SVBRDF, each through its own scale factor (a wrong one for any map fails here)
+    maps = {k for k in ds.data_vars if "scale_factor" in ds[k].encoding}
+    assert maps == {"diffuse", "normal", "specular", "roughness"}, maps
+    for s in range(r.n_svbrdf):
+        base = r.base_maps(s)
+        for k in ("diffuse", "specular", "roughness"):
+            np.testing.assert_allclose(ds[k][s].values, getattr(base, k), rtol=0, atol=F32, err_msg=f"{k} {s}")
+        np.testing.assert_allclose(ds["normal"][s].values, base.normal, rtol=0, atol=NORMAL_RENORM,
+                                   err_msg=f"normal {s}")
 
 
 def test_imported_renders_store_opens_with_xarray(stores, tmp_path):
@@ -201,7 +207,7 @@ def test_stores_record_the_svgen_version_and_code_digest(stores):
 # -- the dataset card ----------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
 def test_every_finished_store_has_its_card(stores, name, svgen_cli):
-    from storage.card import card_text
+    from storage.store import card_text
 
     path = stores / f"{name}.zarr"
     text = (path / "README.md").read_text()

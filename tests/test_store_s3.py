@@ -38,9 +38,55 @@ def _env():
     return {**os.environ, "SVGEN_NO_PROGRESS": "1", "PYTHONPATH": os.getcwd()}
 
 
+#: the only fields that may differ between a store written to S3 and the same run written locally, all in the
+#: group's attributes: paths of the run's inputs, recorded relative to the output store (storage.store.recorded_path),
+#: which an ``s3://`` output cannot be, so there they are absolute. Every array's zarr.json must be equal.
+PLACE_DEPENDENT = {
+    "path": "an input store's path (render, blend: attributes 'inputs' / 'source')",
+    "source": "an imported material's source folder (import: 'materials')",
+    "sources": "import's source folders ('import')",
+    "stores": "the stores an imported sample re-reads ('imported')",
+}
+
+
+def _strip_places(meta: dict) -> dict:
+    """A zarr.json without the fields that name places (:data:`PLACE_DEPENDENT`), at any depth of its attributes."""
+    if isinstance(meta, dict):
+        return {k: _strip_places(v) for k, v in meta.items() if k not in PLACE_DEPENDENT}
+    if isinstance(meta, list):
+        return [_strip_places(v) for v in meta]
+    return meta
+
+
+def assert_same_metadata(s3, url: str, local: Path):
+    """Every array's zarr.json (dimension_names, CF attributes, codecs, shards) and the group's zarr.json with its
+    consolidated metadata equal the local store's, apart from :data:`PLACE_DEPENDENT`; and xarray, through
+    s3fs against the server, decodes every variable of the S3 store exactly as it decodes the local copy."""
+    import xarray as xr
+
+    fs, root = s3.fs(), url.split("://", 1)[1]
+    metas = sorted(str(p.relative_to(local)) for p in local.rglob("zarr.json"))
+    assert len(metas) > 1 and metas == sorted(k[len(root) + 1:] for k in fs.find(root) if k.endswith("zarr.json"))
+    for k in metas:
+        got, want = json.loads(fs.cat_file(f"{root}/{k}")), json.loads((local / k).read_text())
+        if k != "zarr.json":
+            assert got == want, k  # an array: nothing may differ
+            assert got["dimension_names"] and got["attributes"], k
+        assert _strip_places(got) == _strip_places(want), k
+    ds = xr.open_zarr(url, storage_options={"endpoint_url": s3.endpoint})
+    dl = xr.open_zarr(local)
+    assert sorted(ds.data_vars) == sorted(dl.data_vars) and ds.sizes == dl.sizes
+    for name in dl.data_vars:
+        a, b = ds[name], dl[name]
+        assert a.dims == b.dims and a.attrs == b.attrs and a.dtype == b.dtype, name
+        assert a.encoding.get("scale_factor") == b.encoding.get("scale_factor"), name
+        np.testing.assert_array_equal(a.values, b.values, err_msg=name)
+
+
 def assert_same_store(s3, url: str, local: Path):
-    """Every chunk object equals the local chunk file byte for byte, decoded values agree, manifests are equal,
-    and no marker or lock is left in the bucket."""
+    """Every chunk object equals the local chunk file byte for byte, every zarr.json equals the local one and
+    xarray decodes both alike (:func:`assert_same_metadata`), decoded values agree, manifests are equal, and no
+    marker or lock is left in the bucket."""
     fs, root = s3.fs(), url.split("://", 1)[1]
     man = json.loads(fs.cat_file(f"{root}/{MANIFEST}"))
     assert man == json.loads((local / MANIFEST).read_text())
@@ -56,6 +102,7 @@ def assert_same_store(s3, url: str, local: Path):
     assert sorted(g) == sorted(gl)
     for name in gl:
         np.testing.assert_array_equal(g[name][:], gl[name][:], err_msg=name)
+    assert_same_metadata(s3, url, local)
 
 
 def test_sample_to_s3_equals_local(s3, tmp_path):
@@ -92,28 +139,20 @@ def _versions(s3, prefix: str) -> dict[str, int]:
 
 
 def test_sigkill_mid_render_then_rerun_is_identical(variants, reference, s3):  # noqa: F811
-    """kill -9 after two chunks: readers refuse the store; the rerun takes over the dead run's lock, writes only
-    the chunks without a marker (bucket versioning counts the writes of each chunk object) and ends identical."""
+    """kill -9 right after the first chunk's marker (SVGEN_TEST_KILL_AT=chunk, as the local kill tests): readers
+    refuse the store; the rerun takes over the dead run's lock, writes only the chunks without a marker (bucket
+    versioning counts the writes of each chunk object) and ends identical."""
     import boto3
 
     boto3.client("s3", endpoint_url=s3.endpoint).put_bucket_versioning(
         Bucket=s3.bucket, VersioningConfiguration={"Status": "Enabled"})
     url, fs = s3.url("k.zarr"), s3.fs()
-    proc = subprocess.Popen(_svgen("render", variants, url, *ARGS, "--workers", "0"), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, env=_env())
+    proc = subprocess.run(_svgen("render", variants, url, *ARGS, "--workers", "0"), capture_output=True,
+                          text=True, env={**_env(), "SVGEN_TEST_KILL_AT": "chunk"}, timeout=300)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
     done = f"{s3.bucket}/k.zarr/{DONE_DIR}"
-    deadline = time.time() + 120
-    while time.time() < deadline:
-        fs.invalidate_cache()
-        if len(fs.find(done)) >= 2:
-            break
-        time.sleep(0.05)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
-    fs.invalidate_cache()
     finished = sorted(int(k.rsplit("/", 1)[1]) for k in fs.find(done))
-    if len(finished) >= N_SVBRDF:
-        pytest.skip("the run finished before it could be killed")
+    assert len(finished) == 1 < N_SVBRDF, finished
     assert fs.exists(f"{s3.bucket}/k.zarr.lock"), "the killed run's lock should be left (stale)"
     with pytest.raises(StoreError, match="incomplete"):
         open_store(url, "renders")
@@ -122,34 +161,35 @@ def test_sigkill_mid_render_then_rerun_is_identical(variants, reference, s3):  #
     assert r.returncode == 0, r.stderr
     assert_same_store(s3, url, reference)
     writes = _versions(s3, "k.zarr/image/c/")
-    for c in finished:
-        key = f"k.zarr/image/c/{c}/0/0/0/0"
-        assert writes[key] == 1, f"the rerun rewrote chunk {c}, finished before the kill"
-    assert any(n == 1 for n in writes.values())
+    assert len(writes) == N_SVBRDF and writes[f"k.zarr/image/c/{finished[0]}/0/0/0/0"] == 1, \
+        f"the rerun rewrote chunk {finished[0]}, finished before the kill: {writes}"
+    assert sum(writes.values()) == N_SVBRDF, f"a chunk written twice: {writes}"
 
 
-def test_server_stops_mid_run_then_resumes_identical(variants, reference, s3):  # noqa: F811
-    """The S3 server goes away after two chunks: the run fails with one line (no hang); with the server back the
-    same command resumes (the dead run's lock is taken over) and ends identical to a local run."""
+def test_server_stops_mid_run_then_resumes_identical(variants, reference, s3, tmp_path):  # noqa: F811
+    """The S3 server goes away while the writer is paused after its first chunk's marker (SVGEN_TEST_PAUSE_DIR):
+    the run then fails with one line (no hang); with the server back the same command resumes (the dead run's lock
+    is taken over) and ends identical to a local run."""
     from moto.server import ThreadedMotoServer
 
     port = _closed_port()  # a second server on the same moto state, which this test can stop
     url, fs = s3.url("s.zarr"), s3.fs()
     cmd = _svgen("render", variants, url, *ARGS, "--workers", "0", "--storage-option",
                  f"endpoint_url=http://127.0.0.1:{port}")
+    pause = tmp_path / "pause"
+    pause.mkdir()
     srv = ThreadedMotoServer(ip_address="127.0.0.1", port=port, verbose=False)
     srv.start()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
-    deadline = time.time() + 120
-    while time.time() < deadline and proc.poll() is None:
-        fs.invalidate_cache()
-        if len(fs.find(f"{s3.bucket}/s.zarr/{DONE_DIR}")) >= 2:
-            break
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**_env(), "SVGEN_TEST_PAUSE_DIR": str(pause)})
+    deadline = time.time() + 300
+    while not (pause / "paused").exists() and proc.poll() is None and time.time() < deadline:
         time.sleep(0.05)
+    assert (pause / "paused").exists(), "the writer never reached its first chunk's marker"
     srv.stop()
+    (pause / "resume").touch()
     _, err = proc.communicate(timeout=120)
-    if proc.returncode == 0:
-        pytest.skip("the run finished before the server stopped")
+    assert len(fs.find(f"{s3.bucket}/s.zarr/{DONE_DIR}")) == 1  # (through the fixture's server: the state is shared)
     lines = [ln for ln in err.strip().splitlines() if ln.strip()]
     assert proc.returncode == 2 and len(lines) == 1 and "unreachable" in lines[0], err
     srv = ThreadedMotoServer(ip_address="127.0.0.1", port=port, verbose=False)

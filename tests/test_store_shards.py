@@ -126,7 +126,7 @@ def test_a_schema_2_store_stays_readable(variants, reference, tmp_path, monkeypa
     import xarray as xr
     from zarr.codecs import Crc32cCodec, ZstdCodec
 
-    from storage import store as S
+    from storage import local as S  # where the writer looks them up (storage.store only re-exports them)
 
     def unsharded(spec, n, chunk):
         return {"shape": (n, *spec.shape), "chunks": (chunk, *spec.shape), "dtype": spec.dtype,
@@ -146,3 +146,34 @@ def test_a_schema_2_store_stays_readable(variants, reference, tmp_path, monkeypa
     out = tmp_path / "renders.zarr"
     run_render(old, out, build(RenderConfig, "tiny", res=32, views=2, chunk=CHUNK), workers=0)
     np.testing.assert_array_equal(RendersReader(out).group["image"][:], RendersReader(reference).group["image"][:])
+
+
+@pytest.mark.parametrize("backend", ["local", "s3"])
+@pytest.mark.parametrize("damage,shard,samples,what", [("missing", 0, "0:4", "is missing chunk 0"),
+                                                        ("truncated", 1, "4:6", "has a changed chunk 1")])
+def test_a_missing_or_truncated_shard_of_several_samples_is_refused(variants, tmp_path, s3, svgen_cli,  # noqa: F811
+                                                                     backend, damage, shard, samples, what):
+    """A shard holds a whole task's samples (4, and the partial last one 2): one deleted or cut short is refused
+    by a reader in one line naming the array and every sample it held, on disk and in a bucket alike."""
+    import shutil
+
+    import zarr
+
+    local = tmp_path / "v.zarr"
+    shutil.copytree(variants, local)
+    arr = zarr.open_group(local, mode="r")["diffuse"]
+    key = f"diffuse/{arr.metadata.encode_chunk_key((shard,) + (0,) * (arr.ndim - 1))}"
+    if backend == "local":
+        store, obj = local, local / key
+        data = obj.read_bytes()
+        obj.unlink() if damage == "missing" else obj.write_bytes(data[:len(data) // 2])
+    else:
+        store, fs = s3.url("v.zarr"), s3.fs()
+        fs.put(str(local), f"{s3.bucket}/v.zarr", recursive=True)
+        obj = f"{s3.bucket}/v.zarr/{key}"
+        data = fs.cat_file(obj)
+        fs.rm(obj) if damage == "missing" else fs.pipe_file(obj, data[:len(data) // 2])
+    code, err = svgen_cli("render", store, tmp_path / "r.zarr", *RENDER, "--workers", "0")
+    assert code == 2, err
+    assert f"array 'diffuse' {what} (samples {samples})" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "r.zarr").exists()
