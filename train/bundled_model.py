@@ -95,8 +95,13 @@ def resolve(checkpoint: str | Path) -> str | Path:
 
 
 def describe(where: Path | None = None) -> str:
-    """One line saying which bundled model runs (for ``svtrain predict`` without ``--checkpoint``)."""
+    """One line saying which bundled model runs (for ``svtrain predict`` without ``--checkpoint``).
+
+    Raises:
+        BundledModelError: see :func:`model_path` (checked first, so that a damaged model says only that).
+    """
     where = where or folder()
+    model_path(where)
     info = manifest(where)
     what = "a placeholder model" if info.get("placeholder") else "the bundled model"
     return (f"using {what} shipped with svgen ({where / MODEL_FILE}, {info.get('steps', '?')} steps on "
