@@ -92,8 +92,8 @@ def main() -> None:
         "wheel_bytes": wheel, "wheel_bar_bytes": WHEEL_BAR, "wheel_under_bar": wheel < WHEEL_BAR,
         "onnx_bytes": onnx_bytes, "onnx_export_s": t.wall_s, "onnx_vs_torch": rows,
         "max_abs_diff": max(r["max_abs_diff"] for r in rows)}, args.note)
-    print(f"model {model_file.stat().st_size / 1e6:.2f} MB, wheel {wheel / 1e6:.2f} MB, onnx {onnx_bytes / 1e6:.2f} MB, "
-          f"max |onnx - torch| {max(r['max_abs_diff'] for r in rows):.2e}")
+    print(f"model {model_file.stat().st_size / 1e6:.2f} MB, wheel {wheel / 1e6:.2f} MB, onnx {onnx_bytes / 1e6:.2f} "
+          f"MB, max |onnx - torch| {max(r['max_abs_diff'] for r in rows):.2e}")
 
 
 if __name__ == "__main__":
