@@ -123,3 +123,23 @@ def test_bad_input_is_one_line_and_exit_2(run_dir, tmp_path, case):
     assert code == 2, err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert not (tmp_path / "m.onnx").exists()
+
+
+def test_the_readme_snippet_runs_the_exported_model(exported, tmp_path):
+    """The README's few lines of onnxruntime (no svgen import) run as written on a photo."""
+    import re
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    code = re.search(r"\*\*ONNX\*\*.*?```python\n(.*?)```", readme, re.S).group(1)
+    assert "import train" not in code and "svgen" not in code.replace('"svgen.onnx"', "")
+    shutil.copy(exported, tmp_path / "svgen.onnx")
+    Image.fromarray(flash_photo(300, 400)).save(tmp_path / "photo.jpg")
+    check = "\nprint(normal.shape, diffuse.shape, roughness.shape, specular.shape, normal.dtype)\n"
+    r = subprocess.run([sys.executable, "-c", code + check], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["(1,", "3,", "256,", "256)", "(1,", "3,", "256,", "256)", "(1,", "1,", "256,", "256)",
+                                "(1,", "3,", "256,", "256)", "float32"], r.stdout

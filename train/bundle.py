@@ -69,7 +69,7 @@ def _flag_rates(store: str, crop: int) -> dict[str, Any]:
 def _worst(stress: dict) -> list[tuple[str, float, list[str]]]:
     """Stress categories by the model's re-render RMSE, worst first, with the columns where a baseline is better."""
     rows = []
-    for name, r in stress["groups"].items():
+    for name, r in stress.get("groups", {stress.get("suite", "stress"): stress}).items():  # one category: no groups
         lost = [c for c in COLUMNS if not r["beats_baselines"][c]]
         rows.append((name, float(r["model"]["rerender"]), lost))
     return sorted(rows, key=lambda t: -t[1])
