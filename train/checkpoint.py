@@ -22,6 +22,10 @@ from .config import Config, from_dict
 from .net import SVBRDFNet
 
 FORMAT = "svtrain-checkpoint/1"
+#: what the weights mean to :class:`SVBRDFNet` (input mapping, layer layout, output decoding): recorded in every
+#: checkpoint; bump it when train/net.py changes any of these, so that exports and loads of older weights are refused
+#: by name instead of silently computing something else (checkpoints written before it was recorded are format 1).
+NETWORK_FORMAT = 1
 
 
 def plain(value: Any, where: str = "state") -> Any:
@@ -51,17 +55,23 @@ def save(path: str | Path, state: dict[str, Any]) -> None:
     """
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    torch.save(plain({"format": FORMAT, **state}), tmp)
+    torch.save(plain({"format": FORMAT, "network_format": NETWORK_FORMAT, **state}), tmp)
     os.replace(tmp, path)
 
 
 def load(path: str | Path) -> dict[str, Any]:
     """Read a checkpoint (``weights_only``: tensors and plain data, nothing that runs code).
 
+    Args:
+        path: a checkpoint file, a run directory (its model.pt, else checkpoint.pt), or ``"bundled"``: the model
+            shipped in the package (:mod:`train.bundled_model`).
+
     Raises:
         SvgenError: missing, unreadable or foreign file, or one that carries other pickled objects.
     """
-    path = Path(path)
+    from . import bundled_model
+
+    path = Path(bundled_model.resolve(path))  # the name "bundled": the package's model, checked (one-line errors)
     if path.is_dir():
         for name in ("model.pt", "checkpoint.pt"):
             if (path / name).is_file():
@@ -89,3 +99,23 @@ def load_model(path: str | Path) -> tuple[SVBRDFNet, Config]:
     model.load_state_dict(state["model"])
     model.eval()
     return model, cfg
+
+
+def init_weights(cfg: Config) -> dict[str, torch.Tensor] | None:
+    """The weights ``optim.init`` names (fine-tuning), checked to fit this run's network; None without one.
+
+    Raises:
+        SvgenError: not a checkpoint, run or "bundled"; a model config other than this run's.
+    """
+    source = cfg.optim.init
+    if not source:
+        return None
+    state = load(source)
+    theirs = dict(state["config"]["model"])
+    ours = cfg.to_dict()["model"]
+    if {k: theirs.get(k, v) for k, v in ours.items()} != ours:
+        differ = ", ".join(f"model.{k}={theirs.get(k)!r} (this run: {v!r})" for k, v in ours.items()
+                           if theirs.get(k, v) != v)
+        raise SvgenError(f"--init {source}: its network differs from this run's ({differ}); set the same model "
+                         f"config (--set model.KEY=VALUE) to fine-tune it")
+    return state["model"]

@@ -1,5 +1,5 @@
-"""The ``svtrain`` command line: ``fit``, ``eval``, ``predict``. Thin wrappers over the modules;
-user errors print one line through :func:`svcore.cli.run_cli`."""
+"""The ``svtrain`` command line: ``fit``, ``eval``, ``predict``, ``export-model``, ``bundle``. Thin wrappers over
+the modules; user errors print one line through :func:`svcore.cli.run_cli`."""
 from __future__ import annotations
 
 import json
@@ -32,7 +32,7 @@ def svtrain(verbose: bool) -> None:
                          "optim.batch_size": "--batch-size", "optim.seed": "--seed", "data.workers": "--workers",
                          "optim.compile_loss": "--compile/--no-compile", "compute.device": "--device",
                          "compute.precision": "--precision", "compute.nproc": "--nproc",
-                         "compute.global_batch": "--global-batch"},
+                         "compute.global_batch": "--global-batch", "optim.init": "--init"},
                 envvars={"data.workers": "SVGEN_WORKERS"})
 @click.option("--out", default=DEFAULT_RUN, show_default=True, help="Run directory.")
 @storage_option
@@ -78,7 +78,8 @@ svtrain.add_command(fit)
 
 
 @svtrain.command("eval")
-@click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True, help="Run directory or checkpoint file.")
+@click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True,
+              help="Run directory, checkpoint file, or 'bundled' (the model shipped with svgen).")
 @click.option("--suite", default="heldout", show_default=True, help="Evaluation suite: heldout (held-out presets), stress (per category of a `svgen stress` renders store given by --store) or all (every view of --store, e.g. imported 2018 strips).")
 @click.option("--store", default=None, help="Evaluate on this renders store instead of the training one.")
 @click.option("--limit", type=click.IntRange(min=1), default=None, help="Evaluate at most this many samples.")
@@ -91,7 +92,9 @@ def eval_(ckpt, suite, store, limit, out, train_store, device):
     """RMSE per map and of re-renderings, beside the baselines (eval.json, eval.md)."""
     from .evaluate import markdown, run_eval
 
-    out = out or (ckpt if Path(ckpt).is_dir() else str(Path(ckpt).parent))
+    from .bundled_model import is_bundled
+
+    out = out or ("runs/eval_bundled" if is_bundled(ckpt) else ckpt if Path(ckpt).is_dir() else str(Path(ckpt).parent))
     res = run_eval(ckpt, out, suite=suite, store=store, limit=limit, train_store=train_store, device=device)
     click.echo(markdown(res), nl=False)
     _wrote(out, "eval.json, eval.md, eval.png")
@@ -115,7 +118,8 @@ def eval_extra(ckpt, params_file, out, device):
 
 @svtrain.command()
 @click.argument("photos", nargs=-1, required=True, type=click.Path())
-@click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True, help="Run directory or checkpoint file.")
+@click.option("--checkpoint", "ckpt", default=None,
+              help="Run directory, checkpoint file or 'bundled'. Default: the model shipped with svgen (bundled).")
 @click.option("--out", default=None, help="Output folder: the maps of a single photo, or one sub-folder per photo "
               "(default: <photo name>_maps beside each photo, <folder>_maps for a folder).")
 @click.option("--size", type=click.IntRange(min=1), default=256, show_default=True,
@@ -131,6 +135,10 @@ def predict(photos, ckpt, out, size, input_space, batch_size, device, force):
 
     from .predict import predict_many
 
+    if ckpt is None:
+        from .bundled_model import describe
+
+        click.echo(describe(), err=True)  # one line: which model runs when none is named
     res = predict_many(list(photos), ckpt, out, size, input_space, batch_size, device, force=force)
     for d in res.written:
         click.echo(str(d))
@@ -140,6 +148,46 @@ def predict(photos, ckpt, out, size, input_space, batch_size, device, force):
         listed = "; ".join(f"{p.name}: {why}" for p, why in res.failed)
         raise SvgenError(f"{len(res.failed)} of {len(res.failed) + len(res.written)} photo(s) could not be read "
                          f"({len(res.written)} written): {listed}")
+
+
+@svtrain.command("export-model")
+@click.argument("run")
+@click.option("--format", "fmt", type=click.Choice(["onnx"]), default="onnx", show_default=True,
+              help="Model format: onnx (torch.onnx, opset 17).")
+@click.argument("out", type=click.Path())
+@click.option("--size", type=int, default=256, show_default=True,
+              help="Square side traced for the export (a multiple of the stride 2^levels); the exported image size "
+                   "stays dynamic.")
+def export_model(run, fmt, out, size):
+    """Export RUN (a run directory, checkpoint file or 'bundled') to OUT for use outside svgen.
+
+    ONNX, opset 17. Input 'image': (B, 3, H, W) float32 linear RGB in [0, 1] (sRGB-decode PNG/JPEG first), H and W
+    multiples of the stride 2^levels (128 for the compact preset); batch and size are dynamic. Outputs, decoded:
+    'normal' (B,3,H,W) unit xyz, 'diffuse' (B,3,H,W) linear, 'roughness' (B,1,H,W) perceptual, 'specular'
+    (B,3,H,W) linear F0. A checkpoint of another svgen version is exported only when its weights load unchanged.
+    """
+    from .export import export_onnx
+
+    path, note = export_onnx(run, out, size)
+    if note:
+        click.echo(note, err=True)
+    click.echo(str(path))
+
+
+@svtrain.command()
+@click.argument("run")
+@click.option("--stress-store", default=None, help="A `svgen stress` renders store: the card's stress table and "
+              "known failure cases.")
+@click.option("--into", default=None, help="Folder to write (default: the package's train/bundled).")
+@click.option("--limit", type=int, default=400, show_default=True, help="Held-out views evaluated for the card.")
+@click.option("--final", is_flag=True, help="Not a placeholder: drop the card's placeholder notice.")
+@click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
+def bundle(run, stress_store, into, limit, final, device):
+    """Make RUN the model shipped with svgen: weights-only model.pt, bundled.json and MODEL_CARD.md (evaluated)."""
+    from .bundle import bundle as run_bundle
+
+    out = run_bundle(run, stress_store, into, limit, placeholder=not final, device=device)
+    _wrote(out, "model.pt, bundled.json, MODEL_CARD.md")
 
 
 def main(argv=None) -> None:

@@ -118,6 +118,10 @@ class OptimConfig(ConfigModel):
     eval_every: int = Field(0, ge=0)
     """steps between evaluations of ``data.eval_views`` held-out views during fit, written to heldout.csv with the
     training time so far (evaluation time excluded); 0 = off (heldout.csv then holds only its header)."""
+    init: str | None = None
+    """start from these weights instead of the seeded initialisation (fine-tuning): a checkpoint file, a run
+    directory, or "bundled" (the model shipped in the package); its model config must equal this run's, and the
+    optimiser, schedule and step count start fresh. None: the seeded initialisation."""
     compile_loss: bool = True
     """torch.compile the loss renderer (fuses its elementwise ops: faster on CPU after a one-off compile, cached
     on disk by inductor; benchmarks/bench_train.py measures both); off in tests."""

@@ -47,10 +47,13 @@ log = get_logger(__name__)
 
 
 def build(cfg: Config) -> tuple[SVBRDFNet, torch.optim.Optimizer, torch.Generator]:
-    """Fresh model (seeded init), Adam, and the loss-configuration generator."""
+    """Fresh model (seeded init, or the weights of ``optim.init``), Adam, and the loss-configuration generator."""
     o = cfg.optim
     torch.manual_seed(stream_seed(o.seed, "train.init"))
     model = SVBRDFNet(cfg.model)
+    start = checkpoint.init_weights(cfg)  # fine-tuning: the seeded draw above still happens (same RNG streams)
+    if start is not None:
+        model.load_state_dict(start)
     opt = torch.optim.Adam(model.parameters(), lr=o.lr, betas=(o.beta1, o.beta2))
     gen = torch.Generator().manual_seed(stream_seed(o.seed, "train.loss_configs"))
     torch.manual_seed(stream_seed(o.seed, "train.dropout"))
@@ -305,6 +308,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None
         the metrics dict (also in metrics.json; on ranks other than 0 nothing is written).
     """
     cfg.check()
+    checkpoint.init_weights(cfg)  # a bad --init fails before the run directory exists
     o = cfg.optim
     world = world_from_env()
     place = placement(cfg.compute.device, cfg.compute.precision, world.local_rank if world.size > 1 else None)

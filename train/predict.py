@@ -11,8 +11,10 @@ of the original code kept hitting). EXR values above 1 are clipped: the network 
 Outputs per photo, in its own folder: ``{normal,diffuse,roughness,specular}.png`` (normal encoded (n+1)/2,
 the others sRGB-encoded for viewing), the same maps as linear ``.exr`` (normal as the raw unit vector),
 ``input.png`` (what the network saw), ``rerender.png`` (the maps under a moved flash) and ``prediction.json``
-(checkpoint, config, input space, size, svgen version). Photos that cannot be read are listed at the end (one
-line, non-zero exit) after every readable one has been written.
+(checkpoint, config, input space, size, svgen version, and ``input_check``: simple statistics of the input and a
+warning flag when the photo is far from the training distribution, :mod:`train.photo_check`). Photos that cannot be
+read are listed at the end (one line, non-zero exit) after every readable one has been written. Without a checkpoint
+the model shipped in the package runs (:mod:`train.bundled_model`).
 """
 from __future__ import annotations
 
@@ -32,6 +34,7 @@ from svcore.outputs import refuse_existing
 from svcore.progress import progress
 
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
+from . import bundled_model, photo_check
 from .checkpoint import load_model
 from .render import flash_render
 
@@ -185,13 +188,14 @@ def svgen_version() -> str:
 
 
 @torch.no_grad()
-def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str | Path | None = None,
+def predict_many(inputs: list[str | Path], checkpoint_path: str | Path | None, out: str | Path | None = None,
                  size: int = DEFAULT_SIZE, input_space: str = "auto", batch_size: int = 8,
                  device: str = "cpu", show_progress: bool | None = None, force: bool = False) -> Prediction:
     """Predict maps for photos and folders of photos, ``batch_size`` photos per network call.
 
     A photo's output folder that already holds files is refused before any work unless ``force``
     (:func:`svcore.outputs.refuse_existing`, the rule of every command).
+    ``checkpoint_path``: a checkpoint file or run directory; None or ``"bundled"``: the model shipped in the package.
 
     Returns:
         the folders written and the photos that failed (each with its one-line reason); the caller decides the
@@ -207,6 +211,7 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
     photos = collect_photos(inputs)
     dirs = output_dirs(photos, inputs, out)
     refuse_existing(dirs, force)
+    checkpoint_path = bundled_model.resolve(bundled_model.NAME if checkpoint_path is None else checkpoint_path)
     model, cfg = load_model(checkpoint_path)
     check_size(size, 2 ** cfg.model.levels)
     model.to(dev)
@@ -239,6 +244,10 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
         rer = flash_render(maps, torch.tensor(MOVED_LIGHT))
         maps, x, rer = maps.cpu(), x.cpu(), rer.cpu()
         for k, (photo, d, hw, side, _) in enumerate(batch):
+            checked = photo_check.check(x[k])
+            if checked["warnings"]:
+                log.warning("%s is far from the training photos (%s): the maps may be wrong", photo.name,
+                            "; ".join(checked["warnings"]))
             d.mkdir(parents=True, exist_ok=True)
             write_maps(maps[k:k + 1], d)
             write_png(d / "input.png", srgb_encode(_hwc(x[k:k + 1])))
@@ -247,7 +256,8 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
                 "photo": str(Path(photo).resolve()), "photo_size": list(hw), "crop": "centre square, resized",
                 # > 1: the centre square was enlarged to --size (a warning said so)
                 "upscale": round(size / side, 4),
-                "input_space": input_space_of(photo, input_space), "input_space_option": input_space, **meta},
+                "input_space": input_space_of(photo, input_space), "input_space_option": input_space,
+                "input_check": checked, **meta},
                 indent=2) + "\n")
             written.append(d)
             bar.update(1)
@@ -255,10 +265,11 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path, out: str
     return Prediction(written, failed)
 
 
-def predict(photo: str | Path, checkpoint_path: str | Path, out_dir: str | Path, size: int = DEFAULT_SIZE,
+def predict(photo: str | Path, checkpoint_path: str | Path | None, out_dir: str | Path, size: int = DEFAULT_SIZE,
             input_space: str = "auto", force: bool = False) -> list[Path]:
     """Run the network on one photo and write its maps into ``out_dir``; returns the written files."""
-    res = predict_many([photo], checkpoint_path, out_dir, size, input_space, show_progress=False, force=force)
+    res = predict_many([photo], checkpoint_path, out_dir, size, input_space, show_progress=False,
+                       force=force)  # None: bundled
     if res.failed:
         raise ImageError(res.failed[0][1])
     return sorted(p for p in Path(out_dir).iterdir() if p.is_file())
