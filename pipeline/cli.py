@@ -19,6 +19,7 @@ COMMANDS: dict[str, str] = {
     "export": "pipeline.cmd_export:export",
     "stress": "pipeline.cmd_stress:stress",
     "import": "pipeline.cmd_import:import_",
+    "reference": "pipeline.cmd_reference:reference",
     "stats": "pipeline.cmd_stats:stats",
     "card": "pipeline.cmd_card:card",
 }
