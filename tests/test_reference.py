@@ -14,7 +14,7 @@ import yaml
 from test_dvc_pipeline import ENV, REPO, TINY, sh
 
 #: the shared CC0 reference folder beside the checkout (../shared/materials-cc0), or SVGEN_REFERENCE_DIR
-REFERENCE = Path(os.environ.get("SVGEN_REFERENCE_DIR") or REPO.parents[1] / "shared" / "materials-cc0")
+REFERENCE = Path(os.environ.get("SVGEN_REFERENCE_DIR") or REPO.parent / "shared" / "materials-cc0")
 
 
 @pytest.fixture
