@@ -10,8 +10,9 @@ What it runs, each step the command a user runs (so the figures are those of the
    params.yaml ``train.optim.iterations`` (the ``dvc repro`` model);
 3. the reference at each ``--crops`` fraction: ``svgen reference REF WORK/ref_crop<C> --params params.yaml --crop C``
    (imported at the stated physical scale, rendered with the training views; reused when finished);
-4. ``svtrain eval-reference`` on each (every view, suite ``all``), the eval.md table copied to
-   ``benchmarks/results/sim2real/crop_<C>.md``.
+4. ``svtrain eval --checkpoint RUN --store WORK/ref_crop<C>/renders.zarr`` on each, side by side (a store that is
+   not the run's training store: every view, as ``svtrain eval-reference`` does), its eval.md copied to
+   ``benchmarks/results/sim2real/crop_<C>.md``. Baselines: the training split's means, as in every eval.
 
 Results: key ``sim_to_real`` of ``benchmarks/results/realism.json`` (read, modified, written: other keys, such as
 ``statistics`` written by bench_realism.py, are kept): per crop the model's and both baselines' RMSE per column
@@ -30,6 +31,7 @@ import os
 import shutil
 import subprocess
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from harness import RESULTS, ROOT, command, machine_info, parser
@@ -165,30 +167,40 @@ def main(argv=None) -> None:
     log: list = []
     t0 = time.perf_counter()
     if a.checkpoint:
-        run, trained = Path(a.checkpoint), {"checkpoint": _rel(str(Path(a.checkpoint).resolve())),
-                                            "steps": json.loads((Path(a.checkpoint) / "metrics.json").read_text())
-                                            .get("step") if (Path(a.checkpoint) / "metrics.json").is_file() else None,
-                                            "steps_from": "--checkpoint"}
+        from train.checkpoint import load
+
+        state = load(a.checkpoint)  # a run directory (model.pt, else checkpoint.pt) or a checkpoint file
+        conf = state["config"]
+        run = Path(a.checkpoint)
+        trained = {"checkpoint": _rel(str(run.resolve())), "steps": int(state.get("step", 0)),
+                   "planned_iterations": conf["optim"]["iterations"], "steps_from": "--checkpoint",
+                   "model": conf["model"], "final": state.get("step") == conf["optim"]["iterations"]}
     else:
         run, trained = train(a, work, log)
     params_file = str(ROOT / "params.yaml")
     scales, tables = {}, Path(a.tables)
     tables.mkdir(parents=True, exist_ok=True)
-    for crop in a.crops:
+    for crop in a.crops:  # the reference stores first (one at a time: each import/render uses the workers)
         rd = work / f"ref_crop{crop:g}"
         if not _done(rd / "renders.zarr"):
             shutil.rmtree(rd, ignore_errors=True)
             sh(["svgen", "reference", str(ref), str(rd), "--params", params_file, "--crop", str(crop)], log)
-        ev = work / f"eval_{run.name}_crop{crop:g}"
-        sh(["svtrain", "eval", "--checkpoint", str(run), "--suite", "all", "--store", str(rd / "renders.zarr"),
-            "--out", str(ev)], log)
-        res = json.loads((ev / "eval.json").read_text())
+
+    def evaluate(crop: float) -> dict:  # one process per crop, side by side (each is a single-process eval)
+        ev = work / f"eval_{run.stem}_crop{crop:g}"
+        sh(["svtrain", "eval", "--checkpoint", str(run), "--store",  # a foreign store: every view (eval.md says so)
+            str(work / f"ref_crop{crop:g}" / "renders.zarr"), "--out", str(ev)], log)
+        return json.loads((ev / "eval.json").read_text())
+
+    with ThreadPoolExecutor(len(a.crops)) as pool:
+        results = dict(zip(a.crops, pool.map(evaluate, a.crops)))
+    for crop, res in results.items():
+        ev = work / f"eval_{run.stem}_crop{crop:g}"
         scales[f"crop_{crop:g}"] = {"crop": crop, **summarise(res)}
-        md = (ev / "eval.md").read_text().replace(str(rd / "renders.zarr"), f"ref_crop{crop:g}/renders.zarr")
         (tables / f"crop_{crop:g}.md").write_text(
             f"# Sim-to-real: {trained.get('steps')} steps, reference crop {crop:g}\n\n"
             f"{trained.get('steps_from')}; reference {ref.name} imported at crop {crop:g} and rendered "
-            f"with params.yaml's render section.\n\n{md}")
+            f"with params.yaml's render section.\n\n{(ev / 'eval.md').read_text()}")
     n_ref = sum(1 for _ in ref.iterdir() if _.is_dir())
     block = {"benchmark": "bench_sim2real", "reference": {"folder": ref.name, "material_folders": n_ref},
              "training": trained,
