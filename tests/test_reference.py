@@ -74,3 +74,14 @@ def test_tiny_reference_store_and_its_evaluation(reference_dir, tmp_path, svgen_
     assert "⚠ only 2 SVBRDFs" in (tmp_path / "ev" / "eval" / "eval.md").read_text()
     metrics = json.loads((tmp_path / "ev" / "eval_metrics.json").read_text())
     assert metrics["crop"] == 0.5 and set(metrics["model"]) >= {"normal", "rerender"}
+
+
+@pytest.mark.parametrize("args, words", [(["EMPTY"], "is empty"), (["--crop", "2"], "reference.crop must be <= 1")])
+def test_bad_reference_input_is_one_line(args, words, tmp_path, svgen_cli):
+    (tmp_path / "empty").mkdir()
+    args = [str(tmp_path / "empty") if a == "EMPTY" else a for a in args]
+    code, out = svgen_cli("reference", *args, tmp_path / "out", "--workers", 0)
+    lines = out.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and words in lines[0] and "Traceback" not in out, out
+    if "EMPTY" in args or str(tmp_path / "empty") in args:
+        assert str(tmp_path / "empty") in lines[0]  # the folder is named
