@@ -19,6 +19,7 @@ COMMANDS: dict[str, str] = {
     "export": "pipeline.commands.export:export",
     "stress": "pipeline.commands.stress:stress",
     "import": "pipeline.commands.import_:import_",
+    "reference": "pipeline.commands.reference:reference",
     "stats": "pipeline.commands.stats:stats",
     "card": "pipeline.commands.card:card",
     "gallery": "pipeline.commands.gallery:gallery",

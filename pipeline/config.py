@@ -189,6 +189,16 @@ class ImportConfig(StageConfig):
     """Deschaintre layout: how the strip's input photo is encoded (linear: as the 2018 code read it; srgb)."""
     height_strength: float = Field(0.02, gt=0, le=10)
     """Relief of height value 1 in tile widths: height-derived normals are normalize(-s dh/du, -s dh/dv, 1)."""
+    crop: float = Field(1.0, gt=0, le=1)
+    """Physical scale: the side of the window of the source's centred square that becomes the map, as a fraction
+    of that square's side (1: the whole tile; 0.25: a quarter-width window, 1/16 of the area). A capture covers
+    10-30 cm of material, a scanned tile often a metre or more (docs/IMPORT.md "Physical scale")."""
+    crop_centre: tuple[float, float] = Field((0.5, 0.5), **_LIST)
+    """Where the crop window sits: its centre as (x right, y down) fractions of the square; the window is moved
+    inside the square where it would leave it."""
+    capture_cm: float | None = Field(None, gt=0, le=10000)
+    """Width of material the map should show, in cm, for materials whose metadata.json states physical_size_cm
+    (the tile's width): their crop is capture_cm / physical_size_cm (at most 1); the others use crop."""
     chunk: int = Field(4, ge=1)
     """Materials per task: one dask task converts them and writes one zarr shard per array (small: a task holds
     its materials' full-size source maps in memory)."""
@@ -199,9 +209,28 @@ class ImportConfig(StageConfig):
             raise ValueError(f"category {self.category!r} must not contain '/'")
         if self.as_kind == "renders" and self.layout == "folders":
             raise ValueError("--as renders needs the deschaintre layout (folders hold maps, not photographs)")
+        if len(self.crop_centre) != 2 or not all(0 <= c <= 1 for c in self.crop_centre):
+            raise ValueError(f"crop_centre must be two fractions in [0, 1] (x, y), got {list(self.crop_centre)}")
         return self
+
+
+class ReferenceConfig(StageConfig):
+    """`svgen reference`: real material folders imported and rendered with the training views, the store that
+    `svtrain eval-reference` evaluates a run on (the sim-to-real yardstick, issue #21)."""
+
+    SECTION: ClassVar[str] = "reference"
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {"default": {}, "tiny": {"size": 64}}
+
+    sources: tuple[str, ...] = Field((), **_LIST)
+    """Folders of real material sets (e.g. ../shared/materials-cc0, ambientCG downloads, MatSynth written out to
+    folders). Empty by default: the DVC stages reference and eval_reference then say so and write nothing."""
+    size: int = Field(256, ge=16, le=4096)
+    """Map side of the imported reference (keep it at sample.size, the training maps' side)."""
+    crop: float = Field(1.0, gt=0, le=1)
+    """Physical scale of the reference: import.crop of its import (1: whole tiles; 0.5: the centre half-width
+    window, the most a 512-pixel source gives at 256 without upscaling; docs/IMPORT.md "Physical scale")."""
 
 
 #: params.yaml section -> config class of every svgen stage.
 STAGE_CONFIGS: dict[str, type[StageConfig]] = {c.SECTION: c for c in (SampleConfig, BlendConfig, StressConfig,
-                                                                         RenderConfig, ImportConfig)}
+                                                                         RenderConfig, ImportConfig, ReferenceConfig)}

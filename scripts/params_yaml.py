@@ -41,7 +41,7 @@ OTHER_SECTIONS = {"eval": {"limit": "held-out views evaluated (svtrain eval --li
                                             "2018 test strips)"}}
 
 #: section order of the file (the pipeline's order); sections not listed keep their place at the end.
-ORDER = ("import", "sample", "blend", "render", "train", "eval", "stress")
+ORDER = ("import", "sample", "blend", "render", "train", "eval", "stress", "reference")
 
 HEADER = """\
 # svgen pipeline parameters: `dvc repro` runs every stage from these. Each section fills the typed config of

@@ -185,7 +185,8 @@ def test_metrics_show_is_small_flat_and_numeric(repro):
     assert not bad, f"metrics that are not finite numbers: {bad}"
     assert not any("per_s" in k for k in columns), "machine-dependent speeds are not metrics"
     assert set(files) == {"runs/train/fit_metrics.json", "runs/eval/eval_metrics.json",
-                          "runs/eval_stress/eval_metrics.json", "runs/eval_extra/eval_metrics.json"}, set(files)
+                          "runs/eval_stress/eval_metrics.json", "runs/eval_extra/eval_metrics.json",
+                          "runs/eval_reference/eval_metrics.json"}, set(files)
     # the table that matters is there: the held-out eval of the model and its baselines, the training loss
     assert {"runs/eval/eval_metrics.json:model.rerender", "runs/eval/eval_metrics.json:dataset_mean.rerender",
             "runs/train/fit_metrics.json:loss_final"} <= set(columns)

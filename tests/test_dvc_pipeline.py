@@ -29,6 +29,7 @@ TINY = {
     "eval": {"limit": 8, "extra_stores": []},
     "stress": {"per_category": 1, "size": 64, "seed": 0},
     "import": {"sources": []},
+    "reference": {"sources": []},
 }
 ENV = {**os.environ, "SVGEN_NO_PROGRESS": "1", "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t",
        "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
@@ -61,7 +62,8 @@ def project(tmp_path_factory):
 
 def test_repro_runs_every_stage_then_nothing(project):
     r = sh(["dvc", "repro"], project)
-    for stage in ("sample", "blend", "render", "fit", "eval", "stress", "eval_stress", "charts"):
+    for stage in ("sample", "blend", "render", "fit", "eval", "stress", "eval_stress", "reference", "eval_reference",
+                  "charts"):
         assert f"Running stage '{stage}'" in r.stdout, r.stdout[-2000:]
     for out in ("data/variants.zarr", "data/blends.zarr", "data/renders.zarr", "runs/train/checkpoint.pt",
                 "runs/eval/eval.json", "runs/eval/eval.md", "runs/train/loss.csv", "runs/eval_stress/eval.md",

@@ -311,3 +311,49 @@ def test_resampling_is_an_area_average_and_keeps_tiling(src, rng):
     shift = 1 if src % 64 == 0 else 2
     rolled = resize(np.roll(a, (step, -step), (0, 1)), 64)
     assert np.abs(rolled - np.roll(out, (shift, -shift), (0, 1))).max() < 1e-5
+
+
+def _blocks(s: int, k: int) -> np.ndarray:
+    """(s, s) roughness of k x k blocks, each its own 8-bit code: where each output pixel came from is readable."""
+    idx = (np.arange(s) * k // s)
+    return ((idx[:, None] * k + idx[None, :]) * 3 + 10).astype(np.float64) / 255
+
+
+def test_crop_window_gives_the_source_pixels_it_covers(tmp_path, rng):
+    """Physical scale: import.crop keeps the centre window of the source (crop_centre moves it), a stated physical
+    size with capture_cm decides the fraction per material, and the store records both."""
+    s = 64
+    rough = _blocks(s, 8)
+    for name, meta in (("Plain", None), ("Sized", {"physical_size_cm": 200})):
+        d = tmp_path / "src" / name
+        d.mkdir(parents=True)
+        png8(d / "color.png", rng.random((s, s, 3)))
+        png8(d / "roughness.png", rough)
+        if meta:
+            (d / "metadata.json").write_text(json.dumps(meta))
+    imp(tmp_path / "src", tmp_path / "c.zarr", size=32, crop=0.5)  # window 32 px = size: the pixels as they are
+    st, recs = by_name(tmp_path / "c.zarr")
+    i, rec = recs["Plain"]
+    got = st.maps(i).roughness[..., 0]
+    assert np.abs(got - rough[16:48, 16:48]).max() < 1e-6
+    assert rec["crop"] == {"fraction": 0.5, "centre": [0.5, 0.5], "decided_by": "import.crop", "window_pixels": 32}
+    assert rec["tileable"] is False
+    assert st.attrs["import"]["crop"] == {"fraction": 0.5, "centre": [0.5, 0.5], "capture_cm": None}
+    # a window off centre: (x, y) = (0.25, 0.75) of the square, i.e. columns 0..32, rows 32..64
+    imp(tmp_path / "src", tmp_path / "o.zarr", size=32, crop=0.5, crop_centre=(0.25, 0.75))
+    st, recs = by_name(tmp_path / "o.zarr")
+    assert np.abs(st.maps(recs["Plain"][0]).roughness[..., 0] - rough[32:64, 0:32]).max() < 1e-6
+    # 50 cm of a tile stated as 200 cm wide: a quarter-width window (16 px, enlarged to 32 by --allow-upscale);
+    # the material without a stated size keeps import.crop (1: the whole tile, averaged 2x2)
+    imp(tmp_path / "src", tmp_path / "p.zarr", size=32, capture_cm=50, allow_upscale=True)
+    st, recs = by_name(tmp_path / "p.zarr")
+    i, rec = recs["Sized"]
+    assert rec["crop"]["fraction"] == 0.25 and "physical_size_cm 200" in rec["crop"]["decided_by"]
+    from pipeline.importer.resample import resize
+
+    codes = np.round(rough * 255).astype(np.uint8)[24:40, 24:40, None]
+    assert np.abs(st.maps(i).roughness[..., 0] - resize(codes, 32)[..., 0] / 255).max() < 1e-5
+    i, rec = recs["Plain"]
+    assert rec["crop"]["fraction"] == 1.0
+    want = rough.reshape(32, 2, 32, 2).mean((1, 3))
+    assert np.abs(st.maps(i).roughness[..., 0] - want).max() < 1e-6

@@ -108,6 +108,12 @@ CASES = [  # (id, builder, extra args, words expected in the message)
     ("strip tiles not square", strip_not_square, ["--layout", "deschaintre"], "not square"),
     ("--as renders on folders", renders_from_folders, ["--as", "renders", "--layout", "folders"], "deschaintre"),
     ("bad size", renders_from_folders, ["--size", "3"], "size must be"),
+    ("crop above 1", renders_from_folders, ["--crop", "1.5"], "crop must be <= 1"),
+    ("crop of 0", renders_from_folders, ["--crop", "0"], "crop must be > 0"),
+    ("crop centre outside", renders_from_folders, ["--set", "crop_centre=[1.5,0.5]"], "crop_centre must be two"),
+    ("crop window below --size", renders_from_folders, ["--crop", "0.5"], "the crop window (0.5 of a 32-pixel map)"),
+    ("crop on 2018 strips", strip_not_five, ["--layout", "deschaintre", "--crop", "0.5"], "apply to material folders"),
+    ("capture_cm of 0", renders_from_folders, ["--capture-cm", "0"], "capture_cm must be > 0"),
 ]
 
 

@@ -80,8 +80,8 @@ svtrain.add_command(fit)
 @svtrain.command("eval")
 @click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True,
               help="Run directory, checkpoint file, or 'bundled' (the model shipped with svgen).")
-@click.option("--suite", default="heldout", show_default=True, help="Evaluation suite: heldout (held-out presets), stress (per category of a `svgen stress` renders store given by --store) or all (every view of --store, e.g. imported 2018 strips).")
-@click.option("--store", default=None, help="Evaluate on this renders store instead of the training one.")
+@click.option("--suite", default=None, help="Evaluation suite: heldout (held-out presets), stress (per category of a `svgen stress` renders store given by --store) or all (every view of --store, e.g. imported 2018 strips). Default: heldout on the checkpoint's training store, all on any other store (training saw none of it); eval.md says which.")
+@click.option("--store", default=None, help="Evaluate on this renders store instead of the training one (in full unless --suite says otherwise).")
 @click.option("--limit", type=click.IntRange(min=1), default=None, help="Evaluate at most this many samples.")
 @click.option("--out", default=None, help="Output directory (default: the run directory).")
 @click.option("--train-store", default=None,
@@ -114,6 +114,27 @@ def eval_extra(ckpt, params_file, out, device):
     table = run(ckpt, params_file, out, device)
     click.echo(json.dumps(table))
     _wrote(out, f"{len(table)} store(s), eval_metrics.json")
+
+
+@svtrain.command("eval-reference")
+@click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True, help="Run directory or checkpoint file.")
+@click.option("--params", "params_file", default="params.yaml", show_default=True,
+              help="The params file whose reference.sources says whether there is a reference (empty: nothing).")
+@click.option("--store", required=True, help="The reference renders store (`svgen reference OUT`: OUT/renders.zarr).")
+@click.option("--out", required=True, help="Output directory: eval/ (eval.json, eval.md ...) and eval_metrics.json.")
+@click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
+@storage_option
+def eval_reference(ckpt, params_file, store, out, device):
+    """Evaluate on every view of the reference renders store (real materials); nothing when reference.sources is
+    empty."""
+    from .eval_reference import run, summary
+
+    res = run(ckpt, params_file, store, out, device)
+    if res is None:
+        click.echo(f"no reference sources ({params_file}: reference.sources is empty): nothing evaluated")
+        return
+    click.echo(summary(res))
+    _wrote(out, "eval/eval.json, eval/eval.md, eval_metrics.json")
 
 
 @svtrain.command()

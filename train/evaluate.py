@@ -8,10 +8,13 @@ Baselines (the bar a network must clear):
 - ``input_as_diffuse``: the photo as diffuse albedo, a flat normal, training-mean roughness and specular;
 - ``dataset_mean``: every map constant at its training-set mean (mean normal renormalised).
 
-Suites: ``heldout`` (default) is the held-out split of the training source (or of ``--store``); ``stress``
-evaluates every view of a renders store of ``svgen stress`` sets, one table row per category (the paper's
-failure cases beside the unmodified ``reference`` category). Baseline means always come from the training
-split of the training store.
+Suites: ``heldout`` is the held-out split of the training source (or of ``--store``); ``all`` is every view of
+``--store``; ``stress`` evaluates every view of a renders store of ``svgen stress`` sets, one table row per
+category (the paper's failure cases beside the unmodified ``reference`` category). Without a suite
+(:func:`choose_suite`), the checkpoint's own training store gets ``heldout`` and any other store ``all``: a store
+training never saw has no trained-on views, and its held-out split alone would be a few of its SVBRDFs (2 of the
+15 imported 2018 strips). The report says which views were evaluated and why. Baseline means always come from the
+training split of the training store.
 """
 from __future__ import annotations
 
@@ -38,6 +41,9 @@ from .render import flash_render
 #: flash offsets of the re-rendering metric: the capture position and four moved lights.
 EVAL_LIGHTS = ((0.0, 0.0), (0.5, 0.0), (-0.4, 0.4), (0.3, -0.6), (-0.7, -0.7))
 MAPS = {"normal": NORMAL, "diffuse": DIFFUSE, "roughness": ROUGHNESS, "specular": SPECULAR}
+#: fewer SVBRDFs than this behind a bootstrap interval: the table flags it (resampling 2-4 SVBRDFs gives an
+#: interval that is mostly an artefact of which of them are drawn, not a statement about the material population).
+MIN_CLUSTERS = 5
 #: the key of :func:`evaluate`'s per-view model errors, which run_eval writes to per_view.csv, not eval.json.
 PER_VIEW = "per_view"
 PER_VIEW_FILE = "per_view.csv"
@@ -135,8 +141,17 @@ def paired(model_err: np.ndarray, base_err: np.ndarray, clusters: np.ndarray, se
     pick = rng.integers(0, len(ids), size=(resamples, len(ids)))
     boot = sums[pick].sum(1) / counts[pick].sum(1)
     lo, hi = np.quantile(boot, [0.025, 0.975])
-    return {"gain": float(diff.mean()), "ci95": [float(lo), float(hi)], "views_better": float((diff > 0).mean()),
-            "clusters": int(len(ids))}
+    out = {"gain": float(diff.mean()), "ci95": [float(lo), float(hi)], "views_better": float((diff > 0).mean()),
+           "clusters": int(len(ids))}
+    if len(ids) < MIN_CLUSTERS:
+        out["warning"] = small_sample_warning(len(ids))
+    return out
+
+
+def small_sample_warning(clusters: int) -> str:
+    """The caveat every interval over fewer than :data:`MIN_CLUSTERS` SVBRDFs carries (eval.json and eval.md)."""
+    return (f"only {clusters} SVBRDF{'s' if clusters != 1 else ''} (< {MIN_CLUSTERS}): the interval is not a "
+            "reliable statement about other materials")
 
 
 def train_means(src, indices, crop: int, seed: int, limit: int = 64) -> torch.Tensor:
@@ -227,6 +242,11 @@ def markdown(res: dict) -> str:
     lines.append("")
     lines.append(f"RMSE over {n} samples; normal in (n+1)/2 encoding, other maps linear; "
                  f"re-rendering: flash renders under {len(EVAL_LIGHTS)} light positions.")
+    if "views" in res:
+        v = res["views"]
+        lines.append("")
+        lines.append(f"Views evaluated: {v['evaluated']} ({v['which']}) of the {v['store_views']} in {v['store']}. "
+                     f"Why: {v['why']}")
     for g, r in groups.items():
         if "paired" not in r:
             continue
@@ -240,7 +260,8 @@ def markdown(res: dict) -> str:
         for c in COLUMNS:
             b = min(r["paired"], key=lambda k: r[k][c])
             p = r["paired"][b][c]
-            lines.append(f"| {c} | {b} | {p['gain']:+.4f} | [{p['ci95'][0]:+.4f}, {p['ci95'][1]:+.4f}] | "
+            flag = f" ⚠ {p['warning']}" if p.get("warning") else ""
+            lines.append(f"| {c} | {b} | {p['gain']:+.4f} | [{p['ci95'][0]:+.4f}, {p['ci95'][1]:+.4f}]{flag} | "
                          f"{100 * p['views_better']:.0f} % |")
     return "\n".join(lines) + "\n"
 
@@ -255,14 +276,40 @@ def write_per_view(path: Path, groups: dict[str, dict]) -> None:
                                   *(f"{pv[c][k]:.6g}" for c in COLUMNS)]) + "\n")
 
 
-def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "heldout",
+def store_identity(src) -> tuple | None:
+    """What makes two renders stores the same data: kind, config hash and size (svgen stores are deterministic in
+    their config, so a copy or a moved store is the same store); None for the synthetic source."""
+    meta = (getattr(src, "attrs", None) or {}).get("svgen")
+    return None if not meta else (meta.get("kind"), meta.get("config_hash"), meta.get("n"))
+
+
+def choose_suite(suite: str | None, store: str | None, store_src, train_src) -> tuple[str, str]:
+    """The suite to run and why, in words for the report.
+
+    Without ``suite``: ``heldout`` on the checkpoint's training store (its other views were trained on), ``all`` on
+    any other store (training saw none of it: evaluating only its held-out split would drop most of it).
+    """
+    foreign = store is not None and (store_identity(train_src) is None
+                                     or store_identity(store_src) != store_identity(train_src))
+    if suite is not None:
+        return suite, f"--suite {suite} was asked for" + (
+            " (the store is not the checkpoint's training store)" if foreign and suite == "heldout" else "")
+    if foreign:
+        return "all", ("the store is not the checkpoint's training store (different data), so training saw none of "
+                       "its views: every view is evaluated (--suite heldout for its held-out split only)")
+    return "heldout", ("the checkpoint's own training store: only the held-out split (materials training never saw) "
+                       "is evaluated")
+
+
+def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str | None = None,
              store: str | None = None, limit: int | None = None, train_store: str | None = None,
              device: str = "cpu") -> dict:
     """Evaluate a checkpoint on a suite on ``device`` (train/device.py strings); writes eval.json, eval.md and
     eval.png (bars) into ``out_dir``.
 
     The training store (baseline means, and the held-out split without ``store``) is found from any working
-    directory through the run's ``run.json`` (:mod:`train.runinfo`), or given as ``train_store``.
+    directory through the run's ``run.json`` (:mod:`train.runinfo`), or given as ``train_store``. ``suite`` None
+    picks one (:func:`choose_suite`); the result's ``views`` says which views were evaluated and why.
 
     Returns:
         for one-group suites: {"model"|baseline: {column: RMSE}, "samples", "suite", "beats_baselines"};
@@ -272,14 +319,16 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
     from .device import resolve_device
 
     dev = resolve_device(device)
-    if suite not in SUITES:
+    if suite is not None and suite not in SUITES:
         raise ConfigError(f"unknown eval suite {suite!r}; known: {', '.join(sorted(SUITES))}")
     model, cfg = load_model(checkpoint_path)
     cfg = cfg.model_copy(update={"data": cfg.data.model_copy(
         update={"store": runinfo.train_store(checkpoint_path, cfg.data.store, train_store)})})
     refuse_inside(out_dir, [s for s in (store, cfg.data.store) if s])
-    groups = SUITES[suite](cfg, store)
     train_src = open_source(cfg.data)  # baseline means: the training split of the training store
+    store_src = open_source(cfg.data.model_copy(update={"store": store})) if store else train_src
+    suite, why = choose_suite(suite, store, store_src, train_src)
+    groups = SUITES[suite](cfg, store)
     train_idx, _ = split_for(train_src, cfg.data)
     means = train_means(train_src, train_idx, cfg.data.crop, cfg.optim.seed)
     out_groups, per_view = {}, {}
@@ -294,6 +343,11 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str = "hel
         out_groups[name] = r
     res = {**out_groups[next(iter(out_groups))], "suite": suite} if len(out_groups) == 1 else \
         {"suite": suite, "groups": out_groups}
+    res["views"] = {"which": {"heldout": "the held-out split", "all": "every view",
+                              "stress": "every view, per stress category"}.get(suite, f"suite {suite}"),
+                    "evaluated": sum(r["samples"] for r in out_groups.values()), "store_views": len(store_src),
+                    "store": "the training store" if store is None else Path(str(store).rstrip("/")).name,
+                    "why": why + (f"; at most {limit} views per group (--limit)" if limit else "")}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     write_per_view(out / PER_VIEW_FILE, per_view)

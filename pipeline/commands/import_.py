@@ -12,7 +12,8 @@ from ..config import ImportConfig
 @config_command(ImportConfig, {"layout": "--layout", "size": "--size", "normal_convention": "--normal-convention",
                                "category": "--category", "allow_upscale": "--allow-upscale/--no-allow-upscale",
                                "as_kind": "--as", "input_space": "--input-space",
-                               "height_strength": "--height-strength", "chunk": "--chunk"}, name="import")
+                               "height_strength": "--height-strength", "crop": "--crop",
+                               "capture_cm": "--capture-cm", "chunk": "--chunk"}, name="import")
 @click.argument("paths", nargs=-1, type=click.Path())
 @click.option("--allow-empty", is_flag=True,
               help="With no sources (an empty import.sources in params.yaml): write nothing and succeed (DVC).")

@@ -31,7 +31,7 @@ from . import ImportInputError
 from . import normals as nm
 from .discover import MaterialSource
 from .readers import ImageInfo, info, read_raw
-from .resample import centre_square, resize
+from .resample import centre_square, resize, window
 
 COLOUR_ROLES = ("basecolor", "specular")
 DIELECTRIC_F0 = 0.04
@@ -39,12 +39,30 @@ DEFAULT_ROUGHNESS = 0.5
 ASPECT_TOL = 0.01
 
 
-def preflight(mat: MaterialSource, size: int, allow_upscale: bool) -> dict[str, ImageInfo]:
+def crop_of(mat: MaterialSource, crop: float, capture_cm: float | None) -> tuple[float, str]:
+    """The crop fraction of one material and how it was decided: ``capture_cm`` over the tile width its
+    metadata.json states (``physical_size_cm``, at most 1), else ``crop``.
+
+    Raises:
+        ImportInputError: a stated physical size that is not a positive number.
+    """
+    stated = mat.meta.get("physical_size_cm")
+    if capture_cm is None or stated is None:
+        return crop, "import.crop"
+    if isinstance(stated, bool) or not isinstance(stated, (int, float)) or not stated > 0:
+        raise ImportInputError(f"material {mat.name}: metadata.json physical_size_cm must be a positive number "
+                               f"(the tile's width in cm), got {stated!r}")
+    return min(1.0, capture_cm / float(stated)), f"capture_cm {capture_cm:g} / physical_size_cm {stated:g}"
+
+
+def preflight(mat: MaterialSource, size: int, allow_upscale: bool, crop: float = 1.0) -> dict[str, ImageInfo]:
     """Headers of every map, checked before anything is written.
+
+    ``crop``: the material's crop fraction (:func:`crop_of`): its window must still hold ``size`` pixels.
 
     Raises:
         ImportInputError: unreadable header, no colour map, a 1-channel normal map, maps of different aspect
-            ratios, or a map smaller than ``size`` without ``allow_upscale``.
+            ratios, or a map (its crop window) smaller than ``size`` without ``allow_upscale``.
     """
     infos = {role: info(p) for role, p in mat.files.items()}
     if "basecolor" not in infos:
@@ -60,7 +78,11 @@ def preflight(mat: MaterialSource, size: int, allow_upscale: bool) -> dict[str, 
                                    f"the colour map {infos['basecolor'].width}x{infos['basecolor'].height}: different "
                                    "aspect ratios do not cover the same surface")
     small = min(min(i.width, i.height) for i in infos.values())
-    if small < size and not allow_upscale:
+    if round(small * crop) < size and not allow_upscale:
+        if crop < 1:
+            raise ImportInputError(f"material {mat.name}: the crop window ({crop:g} of a {small}-pixel map) has "
+                                   f"{round(small * crop)} pixels, fewer than --size {size} (pass --allow-upscale "
+                                   "to enlarge it, or a larger crop)")
         raise ImportInputError(f"material {mat.name} has a {small}-pixel map, smaller than --size {size} "
                                "(pass --allow-upscale to enlarge it)")
     return infos
@@ -83,7 +105,8 @@ def _rgb(a: np.ndarray) -> np.ndarray:
 
 
 def convert(mat: MaterialSource, size: int, allow_upscale: bool, convention: str,
-            height_strength: float) -> tuple[SVBRDF, dict]:
+            height_strength: float, crop: float = 1.0, centre: tuple[float, float] = (0.5, 0.5),
+            crop_how: str = "import.crop") -> tuple[SVBRDF, dict]:
     """Read, decode, resample and convert one material folder.
 
     Args:
@@ -91,22 +114,29 @@ def convert(mat: MaterialSource, size: int, allow_upscale: bool, convention: str
         size: output side length.
         allow_upscale: permit maps smaller than ``size``.
         convention: "auto", "opengl" or "directx".
-        height_strength: relief of height value 1, in tile widths (height-derived normals and the agreement test).
+        height_strength: relief of height value 1, in widths of the source tile (height-derived normals and the
+            agreement test); a crop window shows 1/crop of it per map width, so slopes scale by 1/crop.
+        crop, centre: the window of the centred square that becomes the map (:func:`resample.window`).
+        crop_how: how ``crop`` was decided (recorded).
 
     Returns:
         (maps (size, size, C) float32, record): the record says per map the file, the colour space assumed, the
         clipped fraction; the workflow, the normal convention and how it was decided; warnings.
     """
-    infos = preflight(mat, size, allow_upscale)
+    infos = preflight(mat, size, allow_upscale, crop)
     rec: dict = {"maps": {}, "warnings": []}
-    raw, tileable = {}, True
+    raw, tileable = {}, crop >= 1
+    rec["crop"] = {"fraction": crop, "centre": [float(c) for c in centre], "decided_by": crop_how}
     for role, path in mat.files.items():
-        # JPEG: decode at a reduced DCT scale while >= 2x the output (the last 2x is averaged in linear light)
-        a = read_raw(path, min_size=2 * size)
+        # JPEG: decode at a reduced DCT scale while the window stays >= 2x the output (the last 2x is averaged in
+        # linear light)
+        a = read_raw(path, min_size=2 * size if crop >= 1 else int(np.ceil(2 * size / crop)))
         decoded = [int(a.shape[1]), int(a.shape[0])]
         if a.shape[0] != a.shape[1]:
             tileable = False
-        a = centre_square(a)
+        a = window(centre_square(a), crop, centre)
+        if role == "basecolor":
+            rec["crop"]["window_pixels"] = int(a.shape[0])  # of the colour map as decoded
         scale = np.float32(1.0)
         if a.dtype.kind == "u":
             if role in COLOUR_ROLES:  # decode before averaging: averages of colour are averages of light
@@ -156,7 +186,7 @@ def convert(mat: MaterialSource, size: int, allow_upscale: bool, convention: str
     else:
         rough = np.full_like(base[..., :1], DEFAULT_ROUGHNESS)
         rec["warnings"].append(f"no roughness or glossiness map: constant roughness {DEFAULT_ROUGHNESS}")
-    normal = _normals(mat, raw, convention, height_strength, rec)
+    normal = _normals(mat, raw, convention, height_strength / crop, rec)
     maps = SVBRDF(normal=normal, diffuse=np.clip(diffuse, 0, 1).astype(np.float32),
                   specular=np.clip(spec, 0, 1).astype(np.float32), roughness=np.clip(rough, 0, 1).astype(np.float32))
     return maps.validate(normal_tol=1e-3), rec

@@ -133,7 +133,8 @@ def sidecar(path: Path) -> dict:
         return {}
     out = {}
     for key, names in {"licence": ("license", "licence"), "category": ("category",),
-                       "physical_size": ("physical_size", "physical size"), "source_name": ("name",)}.items():
+                       "physical_size": ("physical_size", "physical size"), "physical_size_cm": ("physical_size_cm",),
+                       "source_name": ("name",)}.items():
         for k in names:
             if k in d and isinstance(d[k], (str, int, float)):
                 out[key] = d[k]

@@ -26,7 +26,7 @@ from storage.svbrdf_store import encode_maps
 from . import ImportInputError
 from ..config import ImportConfig
 from ..exec.runner import Stage
-from .convert import preflight
+from .convert import crop_of, preflight
 from .discover import MaterialSource, find_folders
 from .strips import find_strips, tile_size
 
@@ -64,6 +64,9 @@ def plan(cfg: ImportConfig) -> tuple[str, list[MaterialSource]]:
     layout = detect_layout(sources) if cfg.layout == "auto" else cfg.layout
     if cfg.as_kind == "renders" and layout != "deschaintre":
         raise ConfigError("--as renders needs the deschaintre layout (folders hold maps, not photographs)")
+    if layout == "deschaintre" and (cfg.crop < 1 or cfg.capture_cm is not None):
+        raise ConfigError("import.crop and import.capture_cm apply to material folders, not to 2018 strips (their "
+                          "tiles are the published captures)")
     if layout == "deschaintre":
         mats = find_strips(sources)
         for m in mats:
@@ -74,7 +77,7 @@ def plan(cfg: ImportConfig) -> tuple[str, list[MaterialSource]]:
     else:
         mats = find_folders(sources, cfg.normal_convention)
         for m in mats:
-            preflight(m, cfg.size, cfg.allow_upscale)
+            preflight(m, cfg.size, cfg.allow_upscale, crop_of(m, cfg.crop, cfg.capture_cm)[0])
     return layout, mats
 
 
@@ -115,7 +118,9 @@ def _convert(m: MaterialSource, cfg: ImportConfig):
         return split(m, cfg.size, cfg.input_space)
     from .convert import convert
 
-    maps, rec = convert(m, cfg.size, cfg.allow_upscale, cfg.normal_convention, cfg.height_strength)
+    crop, how = crop_of(m, cfg.crop, cfg.capture_cm)
+    maps, rec = convert(m, cfg.size, cfg.allow_upscale, cfg.normal_convention, cfg.height_strength, crop,
+                        tuple(cfg.crop_centre), how)
     return None, maps, rec
 
 
@@ -201,7 +206,11 @@ def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
     def attrs(out: Path) -> dict:  # the source folders relative to the output's directory (storage.store)
         srcs = [recorded_path(s, out) for s in cfg.sources]
         a = {**fixed, "import": {"layout": layout, "sources": srcs, "seed": "crc32 of the material name (import is "
-                                 "deterministic; the value only identifies it)"}}
+                                 "deterministic; the value only identifies it)",
+                                 # physical scale: which part of each source became the map (per material:
+                                 # attrs.materials[i].crop)
+                                 "crop": {"fraction": cfg.crop, "centre": list(cfg.crop_centre),
+                                          "capture_cm": cfg.capture_cm}}}
         if kind == "renders":
             a["inputs"] = [{"path": srcs[0], "kind": "deschaintre-strips", "n": len(mats), "config_hash": ""}]
         return a

@@ -20,6 +20,19 @@ def centre_square(a: np.ndarray) -> np.ndarray:
     return a[r0:r0 + s, c0:c0 + s]
 
 
+def window(a: np.ndarray, fraction: float, centre: tuple[float, float] = (0.5, 0.5)) -> np.ndarray:
+    """The square window of a square (S, S, C) array whose side is ``fraction`` of S (rounded, at least 1 pixel),
+    centred at ``centre`` = (x, y) fractions of the side (x right, y down), moved inside the array where it would
+    leave it. Maps of one material at different resolutions get the same window of the surface (up to rounding)."""
+    s = a.shape[0]
+    w = max(1, min(s, int(round(fraction * s))))
+    if w == s:
+        return a
+    c0 = min(max(int(round(centre[0] * s - w / 2)), 0), s - w)
+    r0 = min(max(int(round(centre[1] * s - w / 2)), 0), s - w)
+    return a[r0:r0 + w, c0:c0 + w]
+
+
 def coverage(s: int, n: int) -> np.ndarray:
     """(n, s) float32: the fraction of output pixel i's footprint [i s/n, (i+1) s/n) that source pixel j covers."""
     a = np.arange(n)[:, None] * (s / n)
