@@ -70,7 +70,7 @@ def test_thread_budget_comes_from_the_worker_not_the_caller():
 def test_the_client_keeps_a_window_of_tasks_not_the_whole_stage(tmp_path):
     """run_chunks submits a few tasks per worker and tops the window up as they finish: the scheduler never holds
     a whole stage (a million-variant sample used to stay silent for minutes while its graph was submitted)."""
-    from pipeline import parallel
+    from pipeline.exec import parallel
 
     log = str(tmp_path)
 
