@@ -2,8 +2,9 @@
 
 :meth:`storage.local.StoreWriter.finalize` writes it into the store before the store is moved into place (so a
 partial store never has one), and ``svgen card STORE [--write]`` prints or regenerates it. It holds nothing that
-is not in the store (no date, no path of the store itself), so the same command gives the same card and two runs
-compared byte for byte still agree.
+is not in the store. Its "How it was made" prints the store's CF ``history`` (the commands that wrote it, with
+their UTC times, :mod:`svcore.history`): the one part of the card, like that attribute, that differs between two
+runs of the same configuration.
 
 Pairing an image with its maps: the aligned maps are not stored, they are the base maps under the view's
 transform. The card states that transform as a formula rather than offering an export of aligned maps: the
@@ -191,9 +192,16 @@ def render_card(group) -> str:
     else:
         out += ["No split recorded: every sample is in one set (a building block of the pipeline, or fewer than two "
                 "base materials)."]
-    out += ["", "## How it was made", "", "```", cmd, "```", "",
-            f"with this `{section}:` section of `params.yaml` (the resolved configuration; the whole of it, with the "
-            "inputs' identities, is the store's `config` attribute):", "", "```yaml",
+    history = attrs.get("history")
+    if history:  # recorded (svcore.history): what was typed, not a reconstruction
+        made = ["The commands that wrote it (the store's CF `history` attribute: UTC time, then the command line "
+                "without storage options):", "", "```", history, "```", "",
+                f"The resolved `{section}:` section of `params.yaml` (`{cmd}` reproduces it; the whole "
+                "configuration, with the inputs' identities, is the store's `config` attribute):"]
+    else:  # a store written before history was recorded
+        made = ["```", cmd, "```", "", f"with this `{section}:` section of `params.yaml` (the resolved "
+                "configuration; the whole of it, with the inputs' identities, is the store's `config` attribute):"]
+    out += ["", "## How it was made", "", *made, "", "```yaml",
             yaml.safe_dump({section: _section(section, config)}, sort_keys=False, width=120).rstrip(), "```", "",
             "Every sample is a pure function of (the stage's master seed, the sample index) and the code: the same "
             "command gives the same bytes with any number of workers. Seeds: "

@@ -58,6 +58,7 @@ import zarr
 from zarr.codecs import Crc32cCodec, ZstdCodec
 
 from svcore.errors import StoreError
+from svcore.history import appended, history_line
 from svcore.versions import library_versions
 
 from .objstore import is_object_url, local_path, normalize_url
@@ -236,7 +237,14 @@ def creation_attrs(kind: str, hash_: str, n: int, chunk: int, arrays: dict[str, 
         },
         "config": config,
         **attrs,
+        # CF: the command that made it (svcore.history; a resume appends its own line)
+        "history": history_line(),
     }
+
+
+def append_history(g: zarr.Group) -> None:
+    """Append the current command to the CF ``history`` of a partial store being resumed."""
+    g.attrs["history"] = appended(dict(g.attrs).get("history"))
 
 
 class StoreWriter:
@@ -297,6 +305,7 @@ class StoreWriter:
             if self._started():
                 self._check_resumable()
                 (self.partial / DONE_DIR).mkdir(exist_ok=True)
+                append_history(zarr.open_group(self.partial, mode="r+"))
             else:
                 self._create()
         except BaseException:

@@ -293,3 +293,40 @@ def test_card_of_a_missing_or_foreign_store_is_one_line_exit_2(tmp_path, svgen_c
             code, err = svgen_cli("card", tmp_path / target, *extra)
             assert code == 2 and err.count("\n") == 1 and words in err and "Traceback" not in err, err
     assert not (tmp_path / "plain" / "README.md").exists() and not (tmp_path / "foreign.zarr" / "README.md").exists()
+
+
+# -- history: the command that made a store (issue 25, item 4) ------------------------------------------------------
+ISO = r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ"
+
+
+def test_store_records_the_command_as_cf_history_and_the_card_prints_it(stores):
+    path = stores / "variants.zarr"
+    history = json.loads((path / "zarr.json").read_text())["attributes"]["history"]
+    sel = " ".join(f"--preset {p}" for p in PRESETS)
+    want = (f"svgen sample {path} --config-preset tiny --per-preset 1 --chunk 2 --workers 0 {sel}")
+    assert re.fullmatch(f"{ISO} {re.escape(want)}", history), history
+    card = (path / "README.md").read_text()
+    how = card.split("## How it was made")[1].split("## Intended use")[0]
+    assert history in how and "--params params.yaml" not in how.split("```")[1], how
+    assert xr.open_zarr(path).attrs["history"] == history
+
+
+def test_a_resume_appends_its_command_and_storage_options_are_not_recorded(tmp_path, svgen_cli):
+    """A run killed after its first chunk, resumed by another command line (other workers, a storage option):
+    two history lines, the second without the option or its value."""
+    import os
+    import sys
+
+    out = tmp_path / "v.zarr"
+    args = ["sample", str(out), "--config-preset", "tiny", "--per-preset", "1", "--chunk", "1",
+            "--preset", PRESETS[0], "--preset", PRESETS[1]]
+    r = subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()", *args, "--workers", "0"],
+                       env={**os.environ, "SVGEN_TEST_KILL_AT": "chunk"}, capture_output=True, text=True)
+    assert r.returncode != 0 and (tmp_path / "v.zarr.partial").exists()
+    code, err = svgen_cli(*args, "--workers", "1", "--storage-option", "key=SECRETKEY")
+    assert code == 0, err
+    lines = json.loads((out / "zarr.json").read_text())["attributes"]["history"].split("\n")
+    assert len(lines) == 2, lines
+    assert re.fullmatch(f"{ISO} svgen {re.escape(' '.join(args))} --workers 0", lines[0]), lines[0]
+    assert re.fullmatch(f"{ISO} svgen {re.escape(' '.join(args))} --workers 1", lines[1]), lines[1]
+    assert "SECRETKEY" not in (out / "zarr.json").read_text() + (out / "README.md").read_text()
