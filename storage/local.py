@@ -61,6 +61,7 @@ from svcore.errors import StoreError
 from svcore.history import appended, history_line
 from svcore.versions import library_versions
 
+from .card import DATA_LICENSE
 from .objstore import is_object_url, local_path, normalize_url
 
 #: 2: chunk manifest (svgen_manifest.json) written at finalize; 3: the sharded layout (:func:`array_layout`). Readers
@@ -237,7 +238,12 @@ def creation_attrs(kind: str, hash_: str, n: int, chunk: int, arrays: dict[str, 
         },
         "config": config,
         **attrs,
-        # CF: the command that made it (svcore.history; a resume appends its own line)
+        # global CF attributes (xarray shows them; CF: the command that made it is `history`, svcore.history, and a
+        # resume appends its own line)
+        "Conventions": "CF-1.11",
+        "title": f"svgen {kind} store",
+        "source": f"svgen {_store_versions()['svgen']}",
+        "license": DATA_LICENSE if "import" not in attrs else "each imported material's own (attribute 'materials')",
         "history": history_line(),
     }
 

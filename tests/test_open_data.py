@@ -330,3 +330,63 @@ def test_a_resume_appends_its_command_and_storage_options_are_not_recorded(tmp_p
     assert re.fullmatch(f"{ISO} svgen {re.escape(' '.join(args))} --workers 0", lines[0]), lines[0]
     assert re.fullmatch(f"{ISO} svgen {re.escape(' '.join(args))} --workers 1", lines[1]), lines[1]
     assert "SECRETKEY" not in (out / "zarr.json").read_text() + (out / "README.md").read_text()
+
+
+# -- analysis-ready xarray (issue 25, item 11) ---------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["variants", "stress", "renders"])
+def test_stores_carry_global_cf_attributes(stores, name):
+    ds = xr.open_zarr(stores / f"{name}.zarr")
+    assert ds.attrs["Conventions"].startswith("CF-") and ds.attrs["title"] == f"svgen {name} store"
+    assert ds.attrs["license"] == "cc-by-4.0" and ds.attrs["source"].startswith("svgen ")
+    assert re.match(ISO, ds.attrs["history"])
+
+
+def test_open_dataset_labels_presets_and_categories(stores):
+    from storage.dataset import open_dataset
+    from storage.svbrdf_store import SVBRDFStore
+
+    ds = open_dataset(stores / "variants.zarr")
+    st = SVBRDFStore(stores / "variants.zarr")
+    assert "preset" in ds.coords and ds["preset"].dtype.kind == "U"
+    assert [str(x) for x in ds["preset"][:, 0].values] == [st.presets[i] for i in st.preset_table()[:, 0]]
+    assert set(ds["preset"][:, 1].values.tolist()) == {""}  # a variant has one parent
+    assert ds.sel(sample=ds["preset"][:, 0] == PRESETS[1]).sizes["sample"] == 1
+    stress = open_dataset(stores / "stress.zarr")
+    assert sorted(stress["category"].values.tolist()) == ["highlight_edge", "print_pattern"]
+
+
+@pytest.mark.parametrize("name", ["variants", "renders"])
+def test_open_dataset_maps_are_float32_with_the_cf_encoding_kept(stores, name):
+    from storage.dataset import open_dataset
+
+    ds, raw = open_dataset(stores / f"{name}.zarr"), xr.open_zarr(stores / f"{name}.zarr")
+    for k in ("diffuse", "normal", "specular", "roughness"):
+        assert ds[k].dtype == np.float32 and ds[k].encoding["dtype"] == np.uint16, k
+        assert ds[k].encoding["scale_factor"] == raw[k].encoding["scale_factor"], k
+        np.testing.assert_allclose(ds[k].values, raw[k].values, rtol=0, atol=F32, err_msg=k)
+
+
+def test_open_dataset_chunks_by_shard(stores):
+    from storage.dataset import open_dataset
+
+    ds = open_dataset(stores / "variants.zarr")  # made with --chunk 2: two samples per shard
+    assert xr.open_zarr(stores / "variants.zarr")["diffuse"].chunks[0] == (1, 1, 1, 1)
+    assert ds["diffuse"].chunks[0] == (2, 2)
+
+
+@pytest.mark.filterwarnings("ignore:saving variable:xarray.SerializationWarning")  # the codes hold no NaN
+@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+def test_open_dataset_writes_to_netcdf_and_reads_back(stores, tmp_path, name):
+    from storage.dataset import open_dataset
+
+    ds = open_dataset(stores / f"{name}.zarr")
+    with pytest.raises((TypeError, ValueError)):  # what the raw attributes give
+        xr.open_zarr(stores / f"{name}.zarr").to_netcdf(tmp_path / "raw.nc", engine="h5netcdf")
+    ds.to_netcdf(tmp_path / "x.nc", engine="h5netcdf")
+    back = xr.open_dataset(tmp_path / "x.nc", engine="h5netcdf")
+    assert json.loads(back.attrs["svgen"])["kind"] == json.loads(ds.attrs["svgen"])["kind"]
+    assert back.attrs["history"] == ds.attrs["history"]
+    np.testing.assert_allclose(back["diffuse"].values, ds["diffuse"].values, rtol=0, atol=F32)
+    for c in ("preset", "category"):
+        if c in ds.coords:
+            assert back[c].values.tolist() == ds[c].values.tolist()
