@@ -390,3 +390,29 @@ def test_open_dataset_writes_to_netcdf_and_reads_back(stores, tmp_path, name):
     for c in ("preset", "category"):
         if c in ds.coords:
             assert back[c].values.tolist() == ds[c].values.tolist()
+
+
+# -- the card's Hugging Face metadata (issue 25, item 12) -------------------------------------------------------------
+@pytest.mark.parametrize("name", ["variants", "stress", "renders", "imported"])
+def test_card_metadata_is_valid_hugging_face_dataset_card_data(stores, name):
+    """huggingface_hub parses the front matter; datasets reads the features back as the arrays' shapes and
+    dtypes (Value, fixed-length list, ArrayND), with nothing outside its schema."""
+    from datasets import Features, Value
+    from huggingface_hub import DatasetCard
+
+    path = stores / f"{name}.zarr"
+    card = DatasetCard((path / "README.md").read_text())
+    assert card.data.license == "cc-by-4.0" and card.data.task_categories == ["image-to-image"]
+    features = Features._from_yaml_list(card.data.dataset_info["features"])
+    assert Features._from_yaml_list(features._to_yaml_list()) == features
+    assert features._to_yaml_list() == card.data.dataset_info["features"]  # no key outside HF's schema
+    g = zarr.open_group(path, mode="r")
+    assert set(features) == set(g.array_keys())
+    for k, f in features.items():
+        shape, dtype = g[k].shape[1:], str(g[k].dtype)
+        if isinstance(f, Value):
+            assert shape == () and f.dtype == dtype, k
+        elif hasattr(f, "length"):
+            assert (f.length,) == shape and f.feature.dtype == dtype, k
+        else:
+            assert tuple(f.shape) == shape and f.dtype == dtype, k
