@@ -73,3 +73,29 @@ def test_shell_completion_as_the_readme_says():
     r = subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()"], env=env, capture_output=True,
                        text=True, timeout=120)
     assert "plain,render" in r.stdout.splitlines(), r.stdout  # bash_complete: "type,value" per candidate
+
+
+# -- the conventions live in the repository (issue 25, item 14) -------------------------------------------------------
+def test_docs_point_to_the_conventions_inside_the_repository():
+    """A clone has no ../shared: README and docs name docs/CONVENTIONS.md, no .md outside the repository, and every
+    docs/*.md they name exists."""
+    import math
+
+    from materials import capture
+
+    docs = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    for doc in docs:
+        text = doc.read_text()
+        assert "DESIGN.md" not in text, doc.name
+        for ref in set(re.findall(r"[\w./-]+\.md\b", text)):
+            assert not ref.startswith("../"), f"{doc.name} names {ref}, outside the repository"
+            if ref.startswith("docs/"):
+                assert (ROOT / ref).is_file(), f"{doc.name} names {ref}, which does not exist"
+    conv = (ROOT / "docs" / "CONVENTIONS.md").read_text()
+    assert "`docs/CONVENTIONS.md`" in (ROOT / "README.md").read_text()
+    for section in ("## The BRDF", "## Maps", "## The capture scene", "## The rendering loss"):
+        assert section in conv, section
+    # the numbers it states are the code's
+    assert f"D = 1 / tan {capture.FOV_DEG / 2:g}° ≈ {capture.CAMERA_DISTANCE:.4f}" in conv
+    assert f"{capture.PLANE_SIZE:g} × {capture.PLANE_SIZE:g} at z = 0" in conv
+    assert math.isclose(capture.CAMERA_DISTANCE, 2.1445, abs_tol=5e-5)
