@@ -24,6 +24,8 @@ Modules (one job each):
 * :mod:`storage.svbrdf_store`: the schema and reader of the variants, blends and stress stores (the renders
   store's schema and reader live with the renderer, :mod:`pipeline.render.store`);
 * :mod:`storage.card`: the dataset card (``README.md``) written into every store;
+* :mod:`storage.dataset`: a store as an analysis-ready xarray dataset (labelled coordinates, float32 maps,
+  shard-sized chunks, netCDF-writable attributes);
 * :mod:`storage.bounds`: up-front resource checks (memory, disk) of a store about to be written.
 
 Layering: ``storage`` imports ``svcore`` and ``materials`` (map names and encodings), never ``pipeline`` or

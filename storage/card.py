@@ -2,8 +2,9 @@
 
 :meth:`storage.local.StoreWriter.finalize` writes it into the store before the store is moved into place (so a
 partial store never has one), and ``svgen card STORE [--write]`` prints or regenerates it. It holds nothing that
-is not in the store (no date, no path of the store itself), so the same command gives the same card and two runs
-compared byte for byte still agree.
+is not in the store. Its "How it was made" prints the store's CF ``history`` (the commands that wrote it, with
+their UTC times, :mod:`svcore.history`): the one part of the card, like that attribute, that differs between two
+runs of the same configuration.
 
 Pairing an image with its maps: the aligned maps are not stored, they are the base maps under the view's
 transform. The card states that transform as a formula rather than offering an export of aligned maps: the
@@ -84,6 +85,25 @@ _LIMITS["variants"] = _LIMITS["blends"] = [
 _LIMITS["stress"] = ["Made to fail: these samples are for evaluation, not training (README 'Where the method fails')."]
 
 
+def hf_feature(name: str, shape: list[int], dtype: str) -> dict:
+    """One entry of ``dataset_info.features`` in Hugging Face's schema (what ``datasets.Features._to_yaml_list``
+    writes): a scalar is a ``Value`` dtype, a vector a fixed-length ``list``, 2 to 5 axes an ``ArrayND``. The
+    axes' names are in the card's table (the schema has no place for them).
+
+    Args:
+        name: the array's name.
+        shape: the shape of one sample (without the sample axis).
+        dtype: numpy dtype name (numpy's names are Hugging Face's ``Value`` dtypes).
+    """
+    if not shape:
+        return {"name": name, "dtype": dtype}
+    if len(shape) == 1:
+        return {"name": name, "list": dtype, "length": int(shape[0])}
+    if len(shape) > 5:
+        raise ValueError(f"array {name!r}: {len(shape)} axes per sample; Hugging Face's arrays have 2 to 5")
+    return {"name": name, "dtype": {f"array{len(shape)}_d": {"shape": [int(x) for x in shape], "dtype": dtype}}}
+
+
 def _size_category(n: int) -> str:
     for bound, name in ((1_000, "n<1K"), (10_000, "1K<n<10K"), (100_000, "10K<n<100K"), (1_000_000, "100K<n<1M")):
         if n < bound:
@@ -134,23 +154,22 @@ def render_card(group) -> str:
         arrays.append((name, dims, list(arr.shape), str(arr.dtype), dict(arr.attrs)))
     views = int(group["image"].shape[1]) if kind == "renders" and "image" in group else 1
     split = attrs.get("split")
-    front = {
-        "license": DATA_LICENSE,
-        "pretty_name": f"svgen {kind}",
-        "task_categories": ["image-to-image"],
-        "tags": ["svbrdf", "material-capture", "inverse-rendering", "synthetic", "zarr"],
-        "size_categories": [_size_category(n * views)],
-        "dataset_info": {
-            "features": [{"name": a[0], "dtype": a[3], "shape": a[2][1:], "dims": a[1]} for a in arrays],
+    from huggingface_hub import DatasetCard, DatasetCardData
+
+    card_data = DatasetCardData(
+        license=DATA_LICENSE, pretty_name=f"svgen {kind}", task_categories=["image-to-image"],
+        tags=["svbrdf", "material-capture", "inverse-rendering", "synthetic", "zarr"],
+        size_categories=[_size_category(n * views)],
+        dataset_info={
+            "features": [hf_feature(a[0], a[2][1:], a[3]) for a in arrays],
             "splits": ([{"name": s, "num_examples": split["counts"][s] * views} for s in ("train", "test")]
                        if split else [{"name": "all", "num_examples": n * views}]),
-        },
-    }
+        })
     cmd, section = _command(kind, attrs)
     config = attrs.get("config", {})
     seeds = {k: v for k, v in config.items() if "seed" in k and not isinstance(v, (dict, list))}
     versions = meta.get("versions", {})
-    out = ["---", yaml.safe_dump(front, sort_keys=False, width=120).rstrip(), "---", "",
+    out = ["---", card_data.to_yaml().rstrip(), "---", "",
            f"# svgen {kind} store", "",
            f"A zarr v3 store written by svgen (version `{versions.get('svgen', 'unknown')}`): "
            f"{_WHAT.get(kind, kind)}. {n} samples"
@@ -191,9 +210,16 @@ def render_card(group) -> str:
     else:
         out += ["No split recorded: every sample is in one set (a building block of the pipeline, or fewer than two "
                 "base materials)."]
-    out += ["", "## How it was made", "", "```", cmd, "```", "",
-            f"with this `{section}:` section of `params.yaml` (the resolved configuration; the whole of it, with the "
-            "inputs' identities, is the store's `config` attribute):", "", "```yaml",
+    history = attrs.get("history")
+    if history:  # recorded (svcore.history): what was typed, not a reconstruction
+        made = ["The commands that wrote it (the store's CF `history` attribute: UTC time, then the command line "
+                "without storage options):", "", "```", history, "```", "",
+                f"The resolved `{section}:` section of `params.yaml` (`{cmd}` reproduces it; the whole "
+                "configuration, with the inputs' identities, is the store's `config` attribute):"]
+    else:  # a store written before history was recorded
+        made = ["```", cmd, "```", "", f"with this `{section}:` section of `params.yaml` (the resolved "
+                "configuration; the whole of it, with the inputs' identities, is the store's `config` attribute):"]
+    out += ["", "## How it was made", "", *made, "", "```yaml",
             yaml.safe_dump({section: _section(section, config)}, sort_keys=False, width=120).rstrip(), "```", "",
             "Every sample is a pure function of (the stage's master seed, the sample index) and the code: the same "
             "command gives the same bytes with any number of workers. Seeds: "
@@ -212,4 +238,4 @@ def render_card(group) -> str:
             f"The data: CC BY 4.0 ({DATA_LICENSE}). The svgen code that made it: MIT (the repository's LICENSE). "
             "Imported materials keep their own licences (the `materials` attribute records their sources).", "",
             "## Citation", "", "The method this data follows:", "", "```bibtex", CITATION, "```", ""]
-    return "\n".join(out)
+    return str(DatasetCard("\n".join(out)))

@@ -58,8 +58,10 @@ import zarr
 from zarr.codecs import Crc32cCodec, ZstdCodec
 
 from svcore.errors import StoreError
+from svcore.history import appended, history_line
 from svcore.versions import library_versions
 
+from .card import DATA_LICENSE
 from .objstore import is_object_url, local_path, normalize_url
 
 #: 2: chunk manifest (svgen_manifest.json) written at finalize; 3: the sharded layout (:func:`array_layout`). Readers
@@ -236,7 +238,19 @@ def creation_attrs(kind: str, hash_: str, n: int, chunk: int, arrays: dict[str, 
         },
         "config": config,
         **attrs,
+        # global CF attributes (xarray shows them; CF: the command that made it is `history`, svcore.history, and a
+        # resume appends its own line)
+        "Conventions": "CF-1.11",
+        "title": f"svgen {kind} store",
+        "source": f"svgen {_store_versions()['svgen']}",
+        "license": DATA_LICENSE if "import" not in attrs else "each imported material's own (attribute 'materials')",
+        "history": history_line(),
     }
+
+
+def append_history(g: zarr.Group) -> None:
+    """Append the current command to the CF ``history`` of a partial store being resumed."""
+    g.attrs["history"] = appended(dict(g.attrs).get("history"))
 
 
 class StoreWriter:
@@ -297,6 +311,7 @@ class StoreWriter:
             if self._started():
                 self._check_resumable()
                 (self.partial / DONE_DIR).mkdir(exist_ok=True)
+                append_history(zarr.open_group(self.partial, mode="r+"))
             else:
                 self._create()
         except BaseException:

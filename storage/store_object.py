@@ -92,6 +92,7 @@ class ObjectStoreWriter(S.StoreWriter):
                     raise StoreError(f"output {self.final} already exists; choose another path or delete it")
                 if self._started(meta):
                     self._check_resumable(meta)
+                    S.append_history(zarr.open_group(self.loc.zarr_store(read_only=False), mode="r+"))
                 else:
                     self._create()
             except BaseException:

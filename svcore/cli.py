@@ -85,6 +85,9 @@ def _quiet_unraisable(unraisable) -> None:
 
 
 def _run_cli(group: click.Group, prog: str, argv=None) -> int:
+    from .history import set_command
+
+    set_command(prog, sys.argv[1:] if argv is None else argv)  # what a store records as its CF history
     try:
         group.main(args=argv, prog_name=prog, standalone_mode=False)
         return 0

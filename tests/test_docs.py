@@ -73,3 +73,63 @@ def test_shell_completion_as_the_readme_says():
     r = subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()"], env=env, capture_output=True,
                        text=True, timeout=120)
     assert "plain,render" in r.stdout.splitlines(), r.stdout  # bash_complete: "type,value" per candidate
+
+
+# -- the conventions live in the repository (issue 25, item 14) -------------------------------------------------------
+def test_docs_point_to_the_conventions_inside_the_repository():
+    """A clone has no ../shared: README and docs name docs/CONVENTIONS.md, no .md outside the repository, and every
+    docs/*.md they name exists."""
+    import math
+
+    from materials import capture
+
+    docs = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    for doc in docs:
+        text = doc.read_text()
+        assert "DESIGN.md" not in text, doc.name
+        for ref in set(re.findall(r"[\w./-]+\.md\b", text)):
+            assert not ref.startswith("../"), f"{doc.name} names {ref}, outside the repository"
+            if ref.startswith("docs/"):
+                assert (ROOT / ref).is_file(), f"{doc.name} names {ref}, which does not exist"
+    conv = (ROOT / "docs" / "CONVENTIONS.md").read_text()
+    assert "`docs/CONVENTIONS.md`" in (ROOT / "README.md").read_text()
+    for section in ("## The BRDF", "## Maps", "## The capture scene", "## The rendering loss"):
+        assert section in conv, section
+    # the numbers it states are the code's
+    assert f"D = 1 / tan {capture.FOV_DEG / 2:g}° ≈ {capture.CAMERA_DISTANCE:.4f}" in conv
+    assert f"{capture.PLANE_SIZE:g} × {capture.PLANE_SIZE:g} at z = 0" in conv
+    assert math.isclose(capture.CAMERA_DISTANCE, 2.1445, abs_tol=5e-5)
+
+
+# -- the README's first hour (issue 25) --------------------------------------------------------------------------------
+def first_hour() -> tuple[list[str], str]:
+    """(the commands of the README's first-hour block, the python block that follows it)."""
+    text = (ROOT / "README.md").read_text()
+    m = re.search(r"<!-- first-hour:.*?-->\s*```bash\n(.*?)```", text, re.S)
+    p = re.search(r"<!-- first-hour-python:.*?-->\s*```python\n(.*?)```", text, re.S)
+    assert m and p, "README.md lost its first-hour blocks"
+    return [line.split("  #")[0].strip() for line in m.group(1).splitlines() if line.strip()], p.group(1)
+
+
+def test_the_first_hour_runs_as_written(tmp_path):
+    """Every command of the README's first hour, in an empty folder, in order: each exits 0 and leaves what the
+    README says it leaves; then the xarray block."""
+    import shlex
+
+    commands, python = first_hour()
+    assert commands[0] == "bash scripts/setup.sh" and (ROOT / "scripts" / "setup.sh").is_file()
+    tools = {"svgen": [sys.executable, "-c", "from pipeline.cli import main; main()"],
+             "svtrain": [sys.executable, "-c", "from train.cli import main; main()"]}
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "SVGEN_NO_PROGRESS": "1"}
+    for cmd in commands[1:]:
+        argv = shlex.split(cmd)
+        assert argv[0] in tools, cmd
+        r = subprocess.run(tools[argv[0]] + argv[1:], cwd=tmp_path, env=env, capture_output=True, text=True)
+        assert r.returncode == 0, (cmd, r.stderr[-2000:])
+    for path in ("data/renders.zarr/README.md", "runs/gallery/index.html", "runs/first/model.pt",
+                 "runs/first/run.json", "runs/photo_maps/diffuse.exr", "runs/photo_maps/rerender.png"):
+        assert (tmp_path / path).is_file(), path
+    r = subprocess.run([sys.executable, "-W", "ignore", "-c", python], cwd=tmp_path, env=env, capture_output=True,
+                       text=True)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "svgen render data/variants.zarr data/renders.zarr" in r.stdout and (tmp_path / "runs/renders.nc").is_file()

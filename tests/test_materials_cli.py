@@ -55,5 +55,6 @@ def test_existing_output_is_not_overwritten(svgen_cli, tmp_path):
     docs.write_text("keep")
     code, out = svgen_cli("materials", "-q", "--docs", docs)
     assert code == 2 and "already exists" in out and docs.read_text() == "keep"
+    assert "pass --force to overwrite it, or choose another path" in out  # the one rule's line (svcore.outputs)
     code, _ = svgen_cli("materials", "-q", "--docs", docs, "--force", "--class", "metal")
     assert code == 0 and "## metal" in docs.read_text()

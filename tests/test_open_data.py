@@ -293,3 +293,126 @@ def test_card_of_a_missing_or_foreign_store_is_one_line_exit_2(tmp_path, svgen_c
             code, err = svgen_cli("card", tmp_path / target, *extra)
             assert code == 2 and err.count("\n") == 1 and words in err and "Traceback" not in err, err
     assert not (tmp_path / "plain" / "README.md").exists() and not (tmp_path / "foreign.zarr" / "README.md").exists()
+
+
+# -- history: the command that made a store (issue 25, item 4) ------------------------------------------------------
+ISO = r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ"
+
+
+def test_store_records_the_command_as_cf_history_and_the_card_prints_it(stores):
+    path = stores / "variants.zarr"
+    history = json.loads((path / "zarr.json").read_text())["attributes"]["history"]
+    sel = " ".join(f"--preset {p}" for p in PRESETS)
+    want = (f"svgen sample {path} --config-preset tiny --per-preset 1 --chunk 2 --workers 0 {sel}")
+    assert re.fullmatch(f"{ISO} {re.escape(want)}", history), history
+    card = (path / "README.md").read_text()
+    how = card.split("## How it was made")[1].split("## Intended use")[0]
+    assert history in how and "--params params.yaml" not in how.split("```")[1], how
+    assert xr.open_zarr(path).attrs["history"] == history
+
+
+def test_a_resume_appends_its_command_and_storage_options_are_not_recorded(tmp_path, svgen_cli):
+    """A run killed after its first chunk, resumed by another command line (other workers, a storage option):
+    two history lines, the second without the option or its value."""
+    import os
+    import sys
+
+    out = tmp_path / "v.zarr"
+    args = ["sample", str(out), "--config-preset", "tiny", "--per-preset", "1", "--chunk", "1",
+            "--preset", PRESETS[0], "--preset", PRESETS[1]]
+    r = subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()", *args, "--workers", "0"],
+                       env={**os.environ, "SVGEN_TEST_KILL_AT": "chunk"}, capture_output=True, text=True)
+    assert r.returncode != 0 and (tmp_path / "v.zarr.partial").exists()
+    code, err = svgen_cli(*args, "--workers", "1", "--storage-option", "key=SECRETKEY")
+    assert code == 0, err
+    lines = json.loads((out / "zarr.json").read_text())["attributes"]["history"].split("\n")
+    assert len(lines) == 2, lines
+    assert re.fullmatch(f"{ISO} svgen {re.escape(' '.join(args))} --workers 0", lines[0]), lines[0]
+    assert re.fullmatch(f"{ISO} svgen {re.escape(' '.join(args))} --workers 1", lines[1]), lines[1]
+    assert "SECRETKEY" not in (out / "zarr.json").read_text() + (out / "README.md").read_text()
+
+
+# -- analysis-ready xarray (issue 25, item 11) ---------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["variants", "stress", "renders"])
+def test_stores_carry_global_cf_attributes(stores, name):
+    ds = xr.open_zarr(stores / f"{name}.zarr")
+    assert ds.attrs["Conventions"].startswith("CF-") and ds.attrs["title"] == f"svgen {name} store"
+    assert ds.attrs["license"] == "cc-by-4.0" and ds.attrs["source"].startswith("svgen ")
+    assert re.match(ISO, ds.attrs["history"])
+
+
+def test_open_dataset_labels_presets_and_categories(stores):
+    from storage.dataset import open_dataset
+    from storage.svbrdf_store import SVBRDFStore
+
+    ds = open_dataset(stores / "variants.zarr")
+    st = SVBRDFStore(stores / "variants.zarr")
+    assert "preset" in ds.coords and ds["preset"].dtype.kind == "U"
+    assert [str(x) for x in ds["preset"][:, 0].values] == [st.presets[i] for i in st.preset_table()[:, 0]]
+    assert set(ds["preset"][:, 1].values.tolist()) == {""}  # a variant has one parent
+    assert ds.sel(sample=ds["preset"][:, 0] == PRESETS[1]).sizes["sample"] == 1
+    stress = open_dataset(stores / "stress.zarr")
+    assert sorted(stress["category"].values.tolist()) == ["highlight_edge", "print_pattern"]
+
+
+@pytest.mark.parametrize("name", ["variants", "renders"])
+def test_open_dataset_maps_are_float32_with_the_cf_encoding_kept(stores, name):
+    from storage.dataset import open_dataset
+
+    ds, raw = open_dataset(stores / f"{name}.zarr"), xr.open_zarr(stores / f"{name}.zarr")
+    for k in ("diffuse", "normal", "specular", "roughness"):
+        assert ds[k].dtype == np.float32 and ds[k].encoding["dtype"] == np.uint16, k
+        assert ds[k].encoding["scale_factor"] == raw[k].encoding["scale_factor"], k
+        np.testing.assert_allclose(ds[k].values, raw[k].values, rtol=0, atol=F32, err_msg=k)
+
+
+def test_open_dataset_chunks_by_shard(stores):
+    from storage.dataset import open_dataset
+
+    ds = open_dataset(stores / "variants.zarr")  # made with --chunk 2: two samples per shard
+    assert xr.open_zarr(stores / "variants.zarr")["diffuse"].chunks[0] == (1, 1, 1, 1)
+    assert ds["diffuse"].chunks[0] == (2, 2)
+
+
+@pytest.mark.filterwarnings("ignore:saving variable:xarray.SerializationWarning")  # the codes hold no NaN
+@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+def test_open_dataset_writes_to_netcdf_and_reads_back(stores, tmp_path, name):
+    from storage.dataset import open_dataset
+
+    ds = open_dataset(stores / f"{name}.zarr")
+    with pytest.raises((TypeError, ValueError)):  # what the raw attributes give
+        xr.open_zarr(stores / f"{name}.zarr").to_netcdf(tmp_path / "raw.nc", engine="h5netcdf")
+    ds.to_netcdf(tmp_path / "x.nc", engine="h5netcdf")
+    back = xr.open_dataset(tmp_path / "x.nc", engine="h5netcdf")
+    assert json.loads(back.attrs["svgen"])["kind"] == json.loads(ds.attrs["svgen"])["kind"]
+    assert back.attrs["history"] == ds.attrs["history"]
+    np.testing.assert_allclose(back["diffuse"].values, ds["diffuse"].values, rtol=0, atol=F32)
+    for c in ("preset", "category"):
+        if c in ds.coords:
+            assert back[c].values.tolist() == ds[c].values.tolist()
+
+
+# -- the card's Hugging Face metadata (issue 25, item 12) -------------------------------------------------------------
+@pytest.mark.parametrize("name", ["variants", "stress", "renders", "imported"])
+def test_card_metadata_is_valid_hugging_face_dataset_card_data(stores, name):
+    """huggingface_hub parses the front matter; datasets reads the features back as the arrays' shapes and
+    dtypes (Value, fixed-length list, ArrayND), with nothing outside its schema."""
+    from datasets import Features, Value
+    from huggingface_hub import DatasetCard
+
+    path = stores / f"{name}.zarr"
+    card = DatasetCard((path / "README.md").read_text())
+    assert card.data.license == "cc-by-4.0" and card.data.task_categories == ["image-to-image"]
+    features = Features._from_yaml_list(card.data.dataset_info["features"])
+    assert Features._from_yaml_list(features._to_yaml_list()) == features
+    assert features._to_yaml_list() == card.data.dataset_info["features"]  # no key outside HF's schema
+    g = zarr.open_group(path, mode="r")
+    assert set(features) == set(g.array_keys())
+    for k, f in features.items():
+        shape, dtype = g[k].shape[1:], str(g[k].dtype)
+        if isinstance(f, Value):
+            assert shape == () and f.dtype == dtype, k
+        elif hasattr(f, "length"):
+            assert (f.length,) == shape and f.feature.dtype == dtype, k
+        else:
+            assert tuple(f.shape) == shape and f.dtype == dtype, k

@@ -90,6 +90,23 @@ def test_cli_side_by_side(known, tmp_path, svgen_cli):
     assert code == 2 and out.strip().startswith("svgen: error: no store at")
 
 
+def test_stats_out_follows_the_one_overwrite_rule(known, tmp_path, svgen_cli):
+    """An --out folder that holds files is refused before any work (one line, exit 2), kept as it was; --force
+    writes; an empty folder is no existing output (svcore.outputs)."""
+    path, _ = known
+    (tmp_path / "st").mkdir()
+    (tmp_path / "st" / "stats.json").write_text("keep")
+    code, out = svgen_cli("stats", path, "--out", tmp_path / "st")
+    assert code == 2 and out.count("\n") == 1 and "already exists" in out and "--force" in out, out
+    assert (tmp_path / "st" / "stats.json").read_text() == "keep" and len(list((tmp_path / "st").iterdir())) == 1
+    code, out = svgen_cli("stats", path, "--out", tmp_path / "st", "--force")
+    assert code == 0, out
+    assert json.loads((tmp_path / "st" / "stats.json").read_text())[0]["kind"] == "variants"
+    (tmp_path / "empty").mkdir()
+    code, out = svgen_cli("stats", path, "--out", tmp_path / "empty")
+    assert code == 0 and (tmp_path / "empty" / "stats.md").exists(), out
+
+
 def test_realism_profile_of_known_store(known):
     """Stored maps through the store reader: each realism statistic equals its closed-form value."""
     from pipeline.stats.profile import profile

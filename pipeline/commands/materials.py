@@ -5,16 +5,15 @@ from pathlib import Path
 
 import click
 
-from svcore.errors import SvgenError
+from svcore.cli import force_option
+from svcore.outputs import refuse_existing
 
 
 def _check_out(path: str | None, force: bool) -> Path | None:
     if path is None:
         return None
-    p = Path(path)
-    if p.exists() and not force:
-        raise SvgenError(f"{p} already exists; pass --force to overwrite it")
-    return p
+    refuse_existing([path], force)  # the one overwrite rule (svcore.outputs)
+    return Path(path)
 
 
 @click.command("materials")
@@ -23,7 +22,7 @@ def _check_out(path: str | None, force: bool) -> Path | None:
 @click.option("--docs", default=None, type=click.Path(dir_okay=False), help="Write markdown docs here.")
 @click.option("--tile", default=80, show_default=True, type=click.IntRange(32, 256), help="Sheet tile size (px).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Generation seed of the sheet.")
-@click.option("--force", is_flag=True, help="Overwrite existing --sheet/--docs files.")
+@force_option("--sheet/--docs files")
 @click.option("--quiet", "-q", is_flag=True, help="Do not print the catalogue.")
 def materials(cls, sheet, docs, tile, seed, force, quiet):
     """List the catalogue: class, preset, parameter, default and range of every exposed parameter."""

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from svcore.cli import force_option
+
 from ..cli_options import storage_option
 
 
@@ -23,7 +25,7 @@ def labels(paths) -> list[str]:
 @click.argument("stores", nargs=-1, required=True, type=click.Path())
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Folder for stats.json, stats.md and stats.png (with --reference also realism.json, realism.md "
-                   "and realism.png) [default: print the tables only].")
+                   "and realism.png; refused if it holds files, see --force) [default: print the tables only].")
 @click.option("--limit", type=click.IntRange(min=1), default=None, help="At most N materials per store, evenly spaced.")
 @click.option("--stride", type=click.IntRange(min=1), default=4, show_default=True, help="Use every N-th pixel.")
 @click.option("--reference", type=click.Path(), default=None,
@@ -33,13 +35,18 @@ def labels(paths) -> list[str]:
               help="Random halvings of the reference averaged into the noise floor.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the reference's halvings.")
-def stats(stores, out, limit, stride, reference, splits, seed):
+@force_option("--out folders")
+def stats(stores, out, limit, stride, reference, splits, seed, force):
     """Distributions of every map over one or more STORES, side by side."""
     import json
     from pathlib import Path
 
+    from svcore.outputs import refuse_existing
+
     from ..stats import chart, store_stats, table
 
+    if out:
+        refuse_existing([out], force)  # before any work: the one overwrite rule
     if reference is not None:
         from ..stats.profile import check_reference
 

@@ -1,0 +1,78 @@
+"""A store as an analysis-ready :class:`xarray.Dataset` (``storage.dataset.open_dataset``).
+
+``xr.open_zarr(store)`` already opens every store (named dimensions, CF ``scale_factor``/``add_offset``, global CF
+attributes); what xarray cannot take from the zarr metadata alone, this adds:
+
+* ``preset`` and ``category`` become labelled string coordinates (the stored arrays are indices into the group's
+  ``presets``/``categories`` lists, which keeps the chunks small and fixed-size; a stored string array would need a
+  zarr data type outside the v3 core spec);
+* maps decode to float32: xarray picks the decoded type from the type of ``scale_factor``, and a JSON attribute
+  is always a float64; 16-bit codes need no more than float32's 24 bits. The CF encoding (``dtype`` uint16,
+  ``scale_factor``, ``add_offset``) stays in ``.encoding``, so writing the dataset stores the codes again;
+* dask chunks of one shard (one task's samples) instead of zarr's inner chunks of one sample, which are sized for
+  random reads by a training loop, not for reductions over the whole store;
+* nested attributes (dicts, lists of lists) are JSON strings, so ``ds.to_netcdf()`` writes them (netCDF
+  attributes are numbers, strings or flat arrays).
+"""
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+#: (index array, group attribute with its labels) made into string coordinates
+LABELS = {"preset": "presets", "category": "categories"}
+
+
+def _netcdf_attr(v):
+    """``v`` as a netCDF attribute: a str, a number or a flat list of numbers as they are, anything else JSON."""
+    if isinstance(v, (str, int, float, np.generic)) and not isinstance(v, bool):
+        return v
+    if isinstance(v, (list, tuple)) and v and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                  for x in v):
+        return list(v)
+    return json.dumps(v, sort_keys=True)
+
+
+def open_dataset(path: str | os.PathLike, storage_options: dict | None = None):
+    """Open a complete svgen store (any kind) as an analysis-ready dataset.
+
+    Args:
+        path: the store (local path or ``s3://`` URL).
+        storage_options: s3fs options of an ``s3://`` store.
+
+    Returns:
+        an :class:`xarray.Dataset`: maps ``(sample, y, x, c)`` float32, images ``(sample, view_index, y, x, rgb)``
+        uint8 sRGB codes as stored, ``preset`` ``(sample, parent)`` / ``category`` ``(sample,)`` string
+        coordinates ("" where the index is -1), chunked by shard along ``sample``.
+
+    Raises:
+        StoreError: not a complete svgen store (checked by :func:`storage.store.open_store`).
+    """
+    import xarray as xr
+
+    from .store import open_store
+
+    g = open_store(path, ("variants", "blends", "stress", "renders"))
+    shard = int(dict(g.attrs)["svgen"]["chunk"])
+    kw = {"storage_options": storage_options} if storage_options else {}
+    ds = xr.open_zarr(str(path), chunks={"sample": shard}, **kw)
+    for name in list(ds.data_vars):
+        var = ds[name]
+        if "scale_factor" in var.encoding and var.dtype == np.float64:
+            out = var.astype(np.float32)
+            out.attrs, out.encoding = var.attrs, dict(var.encoding)
+            ds[name] = out
+    attrs = dict(g.attrs)
+    for index, labels in LABELS.items():
+        if index in ds.data_vars and attrs.get(labels):
+            names = np.array([*attrs[labels], ""], dtype=str)  # -1 picks the ""
+            idx, dims, a = np.asarray(ds[index].values), ds[index].dims, ds[index].attrs
+            ds = ds.drop_vars(index).assign_coords(
+                {index: (dims, names[idx],
+                         {"long_name": a.get("long_name", index), "comment": f"from group attribute {labels!r}"})})
+    ds.attrs = {k: _netcdf_attr(v) for k, v in ds.attrs.items()}
+    for name in ds.variables:
+        ds[name].attrs = {k: _netcdf_attr(v) for k, v in ds[name].attrs.items()}
+    return ds
