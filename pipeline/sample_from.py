@@ -107,8 +107,10 @@ def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
 
     # the imported stores' identities (config hashes, not how their paths are spelled) are part of the config:
     # resuming against a re-imported store is refused; the path keys are not (#15: paths never in the hash)
-    config = {**{k: v for k, v in cfg.as_dict().items() if k not in ("from_stores", "from_dir")}, "from": hashes}
+    drop = ("from_stores", "from_dir") + (SampleConfig.RELIEF_KEYS if cfg.relief == 0 else ())
+    config = {**{k: v for k, v in cfg.as_dict().items() if k not in drop}, "from": hashes}
     return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config, attrs,
                  _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
-                                   preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
+                                   preset_index={n: i for i, n in enumerate(names)}, max_params=max_params,
+                                   relief=cfg.relief, relief_cycles=cfg.relief_cycles),
                  desc="sample", unit="variant", inputs=tuple(stores))
