@@ -108,3 +108,19 @@ def test_band_relief_has_its_slope_and_its_scale(cycles):
     slope_power = p * f ** 2
     peak = float((slope_power * f).sum() / slope_power.sum())  # slope-power-weighted mean frequency
     assert cycles * 0.8 < peak < cycles * 1.6
+
+
+@pytest.mark.parametrize("kind", ["l2", "slope", "cosine"])
+def test_normal_term_forms(kind):
+    """optim.normal_loss: 0 for the true normals; for one tilted pixel the hand-computed value of each form."""
+    import torch
+
+    from train.fit import normal_term
+
+    t = torch.zeros(1, 10, 1, 1)
+    t[0, 2] = 1.0
+    p = t.clone()
+    p[0, 0:3, 0, 0] = torch.tensor([0.6, 0.0, 0.8])
+    assert float(normal_term(t, t, kind)) == pytest.approx(0.0, abs=1e-7)
+    want = {"l2": 0.6 ** 2 / 2, "slope": 0.75 ** 2 / 2, "cosine": 1 - 0.8}[kind]
+    assert float(normal_term(p, t, kind)) == pytest.approx(want, rel=1e-5)
