@@ -95,7 +95,7 @@ def test_shape_flags_give_unit_normals_and_start_flat(flags):
     y = net(torch.rand(2, 3, 32, 32))
     n = y[:, 0:3]
     torch.testing.assert_close(n.norm(dim=1), torch.ones(2, 32, 32))
-    torch.testing.assert_close(n[:, 2], torch.ones(2, 32, 32))  # flat at the start
+    assert (n[:, 2] > 0.999).all()  # flat at the start, up to the small global output bias
     y[:, 0:2].sum().backward()
     part = net.normal_head if flags.get("normal_head") else (net.fullres if flags.get("fullres_convs") else net.out_conv)
     assert any(p.grad is not None and p.grad.abs().sum() > 0 for p in part.parameters())
