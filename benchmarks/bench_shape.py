@@ -20,7 +20,8 @@ The stores are built once by ``--build DIR`` (the commands are recorded in shape
 
     python3 benchmarks/bench_shape.py --build /tmp/shape                       # the stores (~4 min each, loaded)
     python3 benchmarks/bench_shape.py --stores /tmp/shape --steps 600          # the arms -> results/shape.json
-    python3 benchmarks/bench_shape.py --stores /tmp/shape --arms base c12 --seeds 0 1   # some arms, more seeds
+    python3 benchmarks/bench_shape.py --stores /tmp/shape --arms base relief_mid --seeds 0 1   # some arms, more seeds
+    python3 benchmarks/bench_shape.py --chart --merge /tmp/b.json /tmp/c.json   # grids run in parallel, into one file
 
 Results accumulate: an arm (name, seed, steps) already in the output file is not trained again, so a long grid
 can be run piecewise. ``--chart`` redraws docs/img/chart_shape.png from the file alone.
@@ -244,6 +245,8 @@ def main(argv=None) -> None:
     ap.add_argument("--png", default=str(IMG / "chart_shape.png"))
     ap.add_argument("--choice", default="", help="the choice made, for the chart's title and shape.json")
     ap.add_argument("--chart", action="store_true", help="only redraw the chart from --out")
+    ap.add_argument("--merge", nargs="+", default=[], metavar="JSON",
+                    help="add the runs (and commands) of these results files to --out first (grids run in parallel)")
     a = ap.parse_args(argv)
     if a.build:
         root = Path(a.build)
@@ -256,6 +259,11 @@ def main(argv=None) -> None:
     out = Path(a.out)
     old = json.loads(out.read_text()) if out.exists() else {}
     results = {"runs": old.get("runs", []), "commands": old.get("commands", [])}
+    for f in a.merge:
+        other = json.loads(Path(f).read_text())
+        have = {(r["arm"], r["seed"], r["steps"]) for r in results["runs"]}
+        results["runs"] += [r for r in other["runs"] if (r["arm"], r["seed"], r["steps"]) not in have]
+        results["commands"] += [c for c in other.get("commands", []) if c not in results["commands"]]
     if not a.chart:
         if not a.stores:
             ap.error("--stores DIR is needed to train (or --chart to redraw)")
