@@ -28,6 +28,7 @@ can be run piecewise. ``--chart`` redraws docs/img/chart_shape.png from the file
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import multiprocessing
 import subprocess
@@ -134,11 +135,38 @@ def run_arm(store: str, overrides: dict, steps: int, seed: int) -> dict:
 
     _, _, train_s = timed(train)
     model = trainer.net.eval()
+    # kept beside the stores for evaluations on other data (--cross): named by store, overrides, steps and seed
+    key = hashlib.sha256(json.dumps([overrides, steps, seed], sort_keys=True).encode()).hexdigest()[:10]
+    (Path(store).parent / "models").mkdir(exist_ok=True)
+    torch.save({"config": cfg.to_dict(), "state": model.state_dict()},
+               Path(store).parent / "models" / f"{Path(store).stem}_{key}.pt")
     held, seen = spaced(test_idx, EVAL_VIEWS), spaced(train_idx, TRAIN_VIEWS)
     return {"steps": steps, "seed": seed, "train_s": round(train_s, 1), "parameters": count_parameters(model),
             "loss_last_50": float(np.mean(losses[-50:])),
             "heldout": {**view_errors(model, src, held, cfg.data.crop), "svbrdf": cluster_ids(src, held).tolist()},
             "train": {**view_errors(model, src, seen, cfg.data.crop), "svbrdf": cluster_ids(src, seen).tolist()}}
+
+
+def cross_eval(model_file: str, store: str) -> dict:
+    """In a spawned process: a saved arm model on another store's held-out views (the grid's views of that store)."""
+    import torch
+
+    from train.config import from_dict
+    from train.data import open_source, split_by_source
+    from train.evaluate import cluster_ids
+    from train.net import SVBRDFNet
+
+    torch.set_num_threads(2)
+    saved = torch.load(model_file, weights_only=False)
+    cfg = from_dict(saved["config"])
+    model = SVBRDFNet(cfg.model)
+    model.load_state_dict(saved["state"])
+    model.eval()
+    cfg.data.store = store
+    src = open_source(cfg.data)
+    _, test_idx = split_by_source(src, cfg.data.holdout, cfg.data.split_seed)
+    held = spaced(test_idx, EVAL_VIEWS)
+    return {**view_errors(model, src, held, cfg.data.crop), "svbrdf": cluster_ids(src, held).tolist()}
 
 
 def relative(runs: list[dict], split: str = "heldout", resamples: int = 2000, seed: int = 0,
@@ -245,6 +273,9 @@ def main(argv=None) -> None:
     ap.add_argument("--png", default=str(IMG / "chart_shape.png"))
     ap.add_argument("--choice", default="", help="the choice made, for the chart's title and shape.json")
     ap.add_argument("--chart", action="store_true", help="only redraw the chart from --out")
+    ap.add_argument("--cross", nargs=2, metavar=("ARM", "STORE"),
+                    help="evaluate ARM's saved model (seed 0, --steps) on the held-out views of store STORE "
+                         "(a name of STORES) and record it under 'cross'")
     ap.add_argument("--merge", nargs="+", default=[], metavar="JSON",
                     help="add the runs (and commands) of these results files to --out first (grids run in parallel)")
     a = ap.parse_args(argv)
@@ -264,7 +295,21 @@ def main(argv=None) -> None:
         have = {(r["arm"], r["seed"], r["steps"]) for r in results["runs"]}
         results["runs"] += [r for r in other["runs"] if (r["arm"], r["seed"], r["steps"]) not in have]
         results["commands"] += [c for c in other.get("commands", []) if c not in results["commands"]]
-    if not a.chart:
+    results["cross"] = old.get("cross", {})
+    for f in a.merge:
+        results["cross"].update(json.loads(Path(f).read_text()).get("cross", {}))
+    if a.cross:
+        arm, target = a.cross
+        _, store, overrides, mult, _ = ARMS[arm]
+        root = Path(a.stores)
+        key = hashlib.sha256(json.dumps([overrides, a.steps * mult, 0], sort_keys=True).encode()).hexdigest()[:10]
+        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
+            r = ex.submit(cross_eval, str(root / "models" / f"{store}_r_{key}.pt"), str(store_path(root, target))).result()
+        rel = relative([{"heldout": r}])
+        results["cross"][f"{arm} on {target}"] = {"arm": arm, "store": target, "steps": a.steps * mult,
+                                                  **{k: v for k, v in rel.items() if k != "draws"}, "views": r}
+        print(f"{arm} on {target}: rel {rel['rel']:.3f} {rel['ci95']}")
+    elif not a.chart:
         if not a.stores:
             ap.error("--stores DIR is needed to train (or --chart to redraw)")
         root = Path(a.stores)
@@ -285,6 +330,7 @@ def main(argv=None) -> None:
                 print(f"{arm:18s} seed {seed} steps {r['steps']}: held-out rel {h['rel']:.3f} "
                       f"train rel {relative([r], 'train')['rel']:.3f} ({r['train_s']} s)", flush=True)
                 write_results(out, _payload(results, a), a.note)
+    if not a.chart:
         results["commands"].append(" ".join(["python3", "benchmarks/bench_shape.py", *(argv or sys.argv[1:])]))
     write_results(out, _payload(results, a), a.note)
     s = json.loads(out.read_text())
@@ -303,6 +349,7 @@ def _payload(results: dict, a) -> dict:
             "arms": {k: {"factor": v[0], "store": v[1], "overrides": v[2], "steps_x": v[3], "what": v[4]}
                      for k, v in ARMS.items()},
             "choice": a.choice, "commands": results["commands"], "summary": summarise(results, a.steps),
+            "cross": results.get("cross", {}),
             "runs": results["runs"]}
 
 
