@@ -147,8 +147,9 @@ def run_arm(store: str, overrides: dict, steps: int, seed: int) -> dict:
             "train": {**view_errors(model, src, seen, cfg.data.crop), "svbrdf": cluster_ids(src, seen).tolist()}}
 
 
-def cross_eval(model_file: str, store: str) -> dict:
-    """In a spawned process: a saved arm model on another store's held-out views (the grid's views of that store)."""
+def cross_eval(model_file: str, store: str, every: bool = False) -> dict:
+    """In a spawned process: a saved arm model on another store's held-out views (the grid's views of that store),
+    or with ``every`` on all its views (at most EVAL_VIEWS, evenly spaced)."""
     import torch
 
     from train.config import from_dict
@@ -164,7 +165,10 @@ def cross_eval(model_file: str, store: str) -> dict:
     model.eval()
     cfg.data.store = store
     src = open_source(cfg.data)
-    _, test_idx = split_by_source(src, cfg.data.holdout, cfg.data.split_seed)
+    if every:  # a reference store: nothing of it was trained on
+        test_idx = np.arange(len(src))
+    else:
+        _, test_idx = split_by_source(src, cfg.data.holdout, cfg.data.split_seed)
     held = spaced(test_idx, EVAL_VIEWS)
     return {**view_errors(model, src, held, cfg.data.crop), "svbrdf": cluster_ids(src, held).tolist()}
 
@@ -274,8 +278,9 @@ def main(argv=None) -> None:
     ap.add_argument("--choice", default="", help="the choice made, for the chart's title and shape.json")
     ap.add_argument("--chart", action="store_true", help="only redraw the chart from --out")
     ap.add_argument("--cross", nargs=2, metavar=("ARM", "STORE"),
-                    help="evaluate ARM's saved model (seed 0, --steps) on the held-out views of store STORE "
-                         "(a name of STORES) and record it under 'cross'")
+                    help="evaluate ARM's saved model (seed 0, --steps) on the held-out views of store STORE (a name "
+                         "of STORES) or on every view of DIR/STORE_r.zarr (another name: 'ref', the CC0 reference "
+                         "made by svgen import ../shared/materials-cc0 + svgen render --views 4); recorded under 'cross'")
     ap.add_argument("--merge", nargs="+", default=[], metavar="JSON",
                     help="add the runs (and commands) of these results files to --out first (grids run in parallel)")
     a = ap.parse_args(argv)
@@ -304,7 +309,8 @@ def main(argv=None) -> None:
         root = Path(a.stores)
         key = hashlib.sha256(json.dumps([overrides, a.steps * mult, 0], sort_keys=True).encode()).hexdigest()[:10]
         with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
-            r = ex.submit(cross_eval, str(root / "models" / f"{store}_r_{key}.pt"), str(store_path(root, target))).result()
+            r = ex.submit(cross_eval, str(root / "models" / f"{store}_r_{key}.pt"), str(store_path(root, target)),
+                          target not in STORES).result()
         rel = relative([{"heldout": r}])
         results["cross"][f"{arm} on {target}"] = {"arm": arm, "store": target, "steps": a.steps * mult,
                                                   **{k: v for k, v in rel.items() if k != "draws"}, "views": r}
