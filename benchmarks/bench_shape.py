@@ -347,14 +347,21 @@ def main(argv=None) -> None:
               + (f"  effect {e['mean']:+.3f} [{e['ci95'][0]:+.3f}, {e['ci95'][1]:+.3f}]" if e else ""))
 
 
+def _relative_paths(cmd: str) -> str:
+    """A recorded command without absolute paths (results files must not hold them): DIR/<name> for each."""
+    return " ".join("DIR/" + Path(t).name if t.startswith("/") else t for t in cmd.split())
+
+
 def _payload(results: dict, a) -> dict:
-    return {"probe": {"preset": "compact", "crop": 128, "steps": a.steps, "per_preset": PER_PRESET, "blends": BLENDS,
+    return {"command": _relative_paths(" ".join(["python3", "benchmarks/bench_shape.py", *sys.argv[1:]])),
+            "probe": {"preset": "compact", "crop": 128, "steps": a.steps, "per_preset": PER_PRESET, "blends": BLENDS,
                       "views": VIEWS, "stores": {k: {"relief": v[0], "relief_cycles": v[1]} for k, v in STORES.items()},
                       "build": {n: [" ".join(c[:2] + [Path(x).name if x.endswith(".zarr") else x for x in c[2:]])
                                     for c in build_commands(Path("DIR"), n)] for n in STORES}},
             "arms": {k: {"factor": v[0], "store": v[1], "overrides": v[2], "steps_x": v[3], "what": v[4]}
                      for k, v in ARMS.items()},
-            "choice": a.choice, "commands": results["commands"], "summary": summarise(results, a.steps),
+            "choice": a.choice, "commands": [_relative_paths(c) for c in results["commands"]],
+            "summary": summarise(results, a.steps),
             "cross": results.get("cross", {}),
             "runs": results["runs"]}
 
