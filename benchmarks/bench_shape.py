@@ -173,6 +173,36 @@ def cross_eval(model_file: str, store: str, every: bool = False) -> dict:
     return {**view_errors(model, src, held, cfg.data.crop), "svbrdf": cluster_ids(src, held).tolist()}
 
 
+def slope_spectrum(store: str, views: int = 32) -> dict:
+    """Where the relief of a store's views lives: the share of the normals' slope power (x/z, y/z of the 128² centre
+    crops the probes evaluate, zoom and rotation applied) by period, on ``views`` evenly spaced training views.
+
+    Returns:
+        {"period_px<=8", "period_px_8_32", "period_px>32"}: shares of the power; "flat_rmse": mean flat RMSE.
+    """
+    from train.config import resolve
+    from train.data import PairDataset, open_source, split_by_source
+
+    cfg = resolve("compact", None, {"data.store": store})
+    src = open_source(cfg.data)
+    train_idx, _ = split_by_source(src, cfg.data.holdout, cfg.data.split_seed)
+    ds = PairDataset(src, spaced(train_idx, views), cfg.data.crop, 0, train=False)
+    c = cfg.data.crop
+    k = np.fft.fftfreq(c, 1.0 / c)
+    period = c / np.maximum(np.hypot(*np.meshgrid(k, k)), 1e-9)  # pixels
+    bands = {"period_px<=8": period <= 8, "period_px_8_32": (period > 8) & (period <= 32), "period_px>32": period > 32}
+    acc, flat = dict.fromkeys(bands, 0.0), []
+    for i in range(len(ds)):
+        n = ds[i][1].numpy()[0:3]
+        for sl in (n[0] / n[2], n[1] / n[2]):
+            p = np.abs(np.fft.fft2(sl - sl.mean())) ** 2
+            for b, m in bands.items():
+                acc[b] += float(p[m].sum())
+        flat.append(float(np.sqrt(np.mean(((n - np.array([0, 0, 1.0])[:, None, None]) / 2) ** 2))))
+    tot = sum(acc.values())
+    return {**{b: v / tot for b, v in acc.items()}, "flat_rmse": float(np.mean(flat)), "views": len(ds)}
+
+
 def relative(runs: list[dict], split: str = "heldout", resamples: int = 2000, seed: int = 0,
              boot: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
     """Normal RMSE relative to flat over the views of ``split``, mean over seeds, with its bootstrap.
@@ -281,6 +311,8 @@ def main(argv=None) -> None:
                     help="evaluate ARM's saved model (seed 0, --steps) on the held-out views of store STORE (a name "
                          "of STORES) or on every view of DIR/STORE_r.zarr (another name: 'ref', the CC0 reference "
                          "made by svgen import ../shared/materials-cc0 + svgen render --views 4); recorded under 'cross'")
+    ap.add_argument("--spectra", action="store_true",
+                    help="record where each store's relief lives (slope power by period in the probe's crops)")
     ap.add_argument("--merge", nargs="+", default=[], metavar="JSON",
                     help="add the runs (and commands) of these results files to --out first (grids run in parallel)")
     a = ap.parse_args(argv)
@@ -301,6 +333,12 @@ def main(argv=None) -> None:
         results["runs"] += [r for r in other["runs"] if (r["arm"], r["seed"], r["steps"]) not in have]
         results["commands"] += [c for c in other.get("commands", []) if c not in results["commands"]]
     results["cross"] = old.get("cross", {})
+    results["spectra"] = old.get("spectra", {})
+    if a.spectra:
+        for name in STORES:
+            if store_path(Path(a.stores), name).exists():
+                results["spectra"][name] = slope_spectrum(str(store_path(Path(a.stores), name)))
+                print(name, json.dumps(results["spectra"][name]), flush=True)
     for f in a.merge:
         results["cross"].update(json.loads(Path(f).read_text()).get("cross", {}))
     if a.cross:
@@ -315,7 +353,7 @@ def main(argv=None) -> None:
         results["cross"][f"{arm} on {target}"] = {"arm": arm, "store": target, "steps": a.steps * mult,
                                                   **{k: v for k, v in rel.items() if k != "draws"}, "views": r}
         print(f"{arm} on {target}: rel {rel['rel']:.3f} {rel['ci95']}")
-    elif not a.chart:
+    elif not a.chart and not a.spectra:
         if not a.stores:
             ap.error("--stores DIR is needed to train (or --chart to redraw)")
         root = Path(a.stores)
@@ -362,7 +400,7 @@ def _payload(results: dict, a) -> dict:
                      for k, v in ARMS.items()},
             "choice": a.choice, "commands": [_relative_paths(c) for c in results["commands"]],
             "summary": summarise(results, a.steps),
-            "cross": results.get("cross", {}),
+            "cross": results.get("cross", {}), "spectra": results.get("spectra", {}),
             "runs": results["runs"]}
 
 
