@@ -334,6 +334,8 @@ def main(argv=None) -> None:
         results["commands"] += [c for c in other.get("commands", []) if c not in results["commands"]]
     results["cross"] = old.get("cross", {})
     results["spectra"] = old.get("spectra", {})
+    for f in a.merge:
+        results["spectra"].update(json.loads(Path(f).read_text()).get("spectra", {}))
     if a.spectra:
         for name in STORES:
             if store_path(Path(a.stores), name).exists():
