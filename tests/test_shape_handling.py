@@ -124,3 +124,17 @@ def test_normal_term_forms(kind):
     assert float(normal_term(t, t, kind)) == pytest.approx(0.0, abs=1e-7)
     want = {"l2": 0.6 ** 2 / 2, "slope": 0.75 ** 2 / 2, "cosine": 1 - 0.8}[kind]
     assert float(normal_term(p, t, kind)) == pytest.approx(want, rel=1e-5)
+
+
+def test_sample_relief_adds_its_band_to_a_variant_and_nothing_else():
+    """svgen sample's relief knob: off leaves the variant as it is; on adds exactly the band's slopes to its normals
+    and leaves the other maps alone."""
+    from pipeline.sample import with_relief
+    from svcore.seeds import derive_seed
+
+    m = maps_of(smooth_height(64))
+    assert with_relief(m, 7, 0.0, 8.0) is m
+    r = with_relief(m, 7, 0.2, 8.0)
+    np.testing.assert_allclose(r.normal, add_height(m.normal, band_relief(64, derive_seed(7, "sample", 1 << 20), 8.0, 0.2)))
+    for k in ("diffuse", "specular", "roughness"):
+        assert getattr(r, k) is getattr(m, k)
