@@ -225,3 +225,63 @@ def height_to_normal(h: np.ndarray, strength: float = 1.0) -> np.ndarray:
     out[..., 1] = -dhdy * inv
     out[..., 2] = inv
     return out
+
+
+def band_field(size: int, seed: int, cycles: float, width: float = 0.35) -> np.ndarray:
+    """A periodic Gaussian field whose power sits in one band of spatial frequency.
+
+    Args:
+        size: map side in pixels.
+        seed: layer seed (the resolution-consistent white noise of :func:`white_spectrum`).
+        cycles: centre of the band, cycles per texture width.
+        width: standard deviation of the band in natural-log frequency (0.35: about one octave wide).
+
+    Returns:
+        (size, size) float32, zero mean, unit variance (expected).
+    """
+    kx, ky = _freqs(size)
+    f = np.sqrt(kx * kx + ky * ky)
+    with np.errstate(divide="ignore"):
+        amp = np.exp(-0.5 * (np.log(np.maximum(f, 1e-6) / float(cycles)) / width) ** 2)
+    amp[0, 0] = 0.0
+    amp = (amp / max(float(np.sqrt(np.sum(amp.astype(np.float64) ** 2))), 1e-30)).astype(F32)
+    return sfft.ifft2(white_spectrum(size, seed) * amp, norm="forward", workers=1).real.astype(F32)
+
+
+def height_slopes(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(dh/dx, dh/dy) of a periodic height map (H, W) in texture widths, by the wrapped central differences of
+    :func:`height_to_normal`; y points up in the image, so dh/dy = -dh/drow. Returns two (H, W) float32."""
+    k = F32(h.shape[0] / 2.0)
+    dhdx = (np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) * k
+    dhdy = -(np.roll(h, -1, axis=0) - np.roll(h, 1, axis=0)) * k
+    return dhdx.astype(F32), dhdy.astype(F32)
+
+
+def add_height(normal: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Normals of a surface raised by the height ``h`` on top of the relief that ``normal`` already shows.
+
+    Slopes add: a normal (nx, ny, nz) is the surface of slopes (-nx/nz, -ny/nz) (:func:`height_to_normal`), so the
+    sum of two height fields has the normal of the summed slopes.
+
+    Args:
+        normal: (H, W, 3) unit normals, z > 0.
+        h: (H, W) heights in texture widths.
+
+    Returns:
+        (H, W, 3) float32 unit normals.
+    """
+    sx, sy = height_slopes(h)
+    nz = np.maximum(normal[..., 2], F32(1e-3))
+    gx = -normal[..., 0] / nz + sx
+    gy = -normal[..., 1] / nz + sy
+    inv = 1.0 / np.sqrt(gx * gx + gy * gy + 1.0)
+    return np.stack([-gx * inv, -gy * inv, inv], -1).astype(F32)
+
+
+def band_relief(size: int, seed: int, cycles: float, slope_rms: float) -> np.ndarray:
+    """A height field (H, W) in texture widths with its relief in one band around ``cycles`` per texture width,
+    scaled so that its RMS slope (sqrt of mean (dh/dx)^2 + (dh/dy)^2, finite differences) is ``slope_rms``."""
+    h = band_field(size, seed, cycles)
+    sx, sy = height_slopes(h)
+    rms = float(np.sqrt(np.mean(sx.astype(np.float64) ** 2 + sy.astype(np.float64) ** 2)))
+    return (h * F32(slope_rms / max(rms, 1e-12))).astype(F32)

@@ -57,10 +57,17 @@ class SampleConfig(StageConfig):
     and the generic table of pipeline/importer/perturb.py."""
     only_from: bool = False
     """With imported stores: write only the imported materials' variants, no presets'."""
+    relief: float = Field(0.0, ge=0, le=2)
+    """Extra relief on every variant: RMS slope of a height field added to its own (0: none; the learn-shape
+    probes of benchmarks/bench_shape.py). Normals come from the summed heights' slopes."""
+    relief_cycles: float = Field(8.0, ge=1, le=128)
+    """Centre of the extra relief's band, cycles per map width (about one octave wide)."""
 
     #: the keys of imported materials; a store without imported stores records the config without them, so that
     #: it is exactly what a plain `svgen sample` writes (the default DVC pipeline passes an empty --from-dir).
     IMPORT_KEYS: ClassVar[tuple[str, ...]] = ("from_stores", "from_dir", "per_material", "only_from")
+    #: the extra-relief keys: a store without extra relief records the config without them (same bytes as before).
+    RELIEF_KEYS: ClassVar[tuple[str, ...]] = ("relief", "relief_cycles")
 
     @model_validator(mode="after")
     def _only_from_needs_stores(self) -> "SampleConfig":

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import materials
+from materials.noise import add_height, band_relief
 from materials.params import perturb
 
 from svcore.errors import ConfigError
@@ -100,8 +101,18 @@ def make_variant(spec: VariantSpec, sigma: float, size: int) -> tuple[materials.
     return preset.generate(params, size, map_seed), params
 
 
+def with_relief(m: materials.SVBRDF, seed: int, relief: float, cycles: float) -> materials.SVBRDF:
+    """``m`` with an extra band of relief (``SampleConfig.relief``/``relief_cycles``) added to its heights; its own
+    seed stream, derived from the variant's, so the rest of the variant is unchanged."""
+    if relief <= 0:
+        return m
+    # key 1 << 20: no index of the sample stream reaches it, so the relief draws are independent of the variants
+    h = band_relief(m.size, derive_seed(seed, "sample", 1 << 20), cycles, relief)
+    return materials.SVBRDF(add_height(m.normal, h), m.diffuse, m.specular, m.roughness)
+
+
 def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, sigma: float, size: int,
-                preset_index: dict[str, int], max_params: int) -> int:
+                preset_index: dict[str, int], max_params: int, relief: float = 0.0, relief_cycles: float = 8.0) -> int:
     """Worker: make the variants of chunk ``c`` and write them (one whole chunk).
 
     ``specs`` are :class:`VariantSpec` or, with imported stores, :class:`pipeline.sample_from.ImportedSpec`:
@@ -113,6 +124,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, 
     params = np.full((n, max_params), np.nan, np.float32)
     for j, spec in enumerate(specs[start:stop]):
         m, pv = spec.make(sigma, size)
+        m = with_relief(m, spec.seed, relief, relief_cycles)
         for k, v in encode_maps(m.validate()).items():
             maps[k].append(v)
         params[j, :len(pv)] = list(pv.values())
@@ -143,10 +155,12 @@ def sample_stage(cfg: SampleConfig) -> Stage:
     attrs = {"presets": names,
              "param_names": {p.name: p.exposed.names() for p in chosen},
              "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]"}
-    config = {k: v for k, v in cfg.as_dict().items() if k not in SampleConfig.IMPORT_KEYS}
+    drop = SampleConfig.IMPORT_KEYS + (SampleConfig.RELIEF_KEYS if cfg.relief == 0 else ())
+    config = {k: v for k, v in cfg.as_dict().items() if k not in drop}
     return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config,
                  attrs, _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
-                                          preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
+                                          preset_index={n: i for i, n in enumerate(names)}, max_params=max_params,
+                                          relief=cfg.relief, relief_cycles=cfg.relief_cycles),
                  desc="sample", unit="variant")
 
 
@@ -186,8 +200,10 @@ def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
 
     # the imported stores' identities (config hashes, not how their paths are spelled) are part of the config:
     # resuming against a re-imported store is refused; the path keys are not (#15: paths never in the hash)
-    config = {**{k: v for k, v in cfg.as_dict().items() if k not in ("from_stores", "from_dir")}, "from": hashes}
+    drop = ("from_stores", "from_dir") + (SampleConfig.RELIEF_KEYS if cfg.relief == 0 else ())
+    config = {**{k: v for k, v in cfg.as_dict().items() if k not in drop}, "from": hashes}
     return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config, attrs,
                  _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
-                                   preset_index={n: i for i, n in enumerate(names)}, max_params=max_params),
+                                   preset_index={n: i for i, n in enumerate(names)}, max_params=max_params,
+                                   relief=cfg.relief, relief_cycles=cfg.relief_cycles),
                  desc="sample", unit="variant", inputs=tuple(stores))

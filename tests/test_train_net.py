@@ -83,3 +83,30 @@ def test_untrained_network_predicts_its_initial_material(zero_output):
         assert err.max() < 0.02 and spread < 1e-6, (err, spread)  # out_bias weights have std 0.01
     else:
         assert spread > 1e-3, spread
+
+
+@pytest.mark.parametrize("flags", [{"fullres_convs": 2}, {"normal_head": True}, {"normal_param": "slope"}])
+def test_shape_flags_give_unit_normals_and_start_flat(flags):
+    """The learn-shape variants (#22): unit normals with z > 0, a flat start under zero_output, and the normal head
+    or full-resolution layers actually in the normal's path (a gradient reaches them)."""
+    cfg = ModelConfig(base_width=4, max_width=16, levels=4, zero_output=True, **flags)
+    torch.manual_seed(0)
+    net = SVBRDFNet(cfg)
+    y = net(torch.rand(2, 3, 32, 32))
+    n = y[:, 0:3]
+    torch.testing.assert_close(n.norm(dim=1), torch.ones(2, 32, 32))
+    assert (n[:, 2] > 0.999).all()  # flat at the start, up to the small global output bias
+    y[:, 0:2].sum().backward()
+    part = net.normal_head if flags.get("normal_head") else (net.fullres if flags.get("fullres_convs") else net.out_conv)
+    assert any(p.grad is not None and p.grad.abs().sum() > 0 for p in part.parameters())
+
+
+def test_slope_parameterisation_turns_outputs_into_slopes():
+    """normal_param=slope: raw outputs (dx, dy) give n ∝ (-dx, -dy, 1), height_to_normal's convention."""
+    from train.net import outputs_to_maps
+
+    o = torch.zeros(1, 9, 1, 1)
+    o[0, 0], o[0, 1] = 0.5, -0.25
+    n = outputs_to_maps(o, "slope")[0, 0:3, 0, 0]
+    want = torch.tensor([-0.5, 0.25, 1.0])
+    torch.testing.assert_close(n, want / want.norm())

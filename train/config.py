@@ -39,6 +39,16 @@ class ModelConfig(ConfigModel):
     """start the output convolution at zero weights, so that the untrained network predicts exactly its output
     biases (a flat normal and a uniform plausible material) instead of random per-pixel maps."""
 
+    fullres_convs: int = Field(0, ge=0, le=4)
+    """convolutions (3x3, instance norm + global bias, leaky ReLU) at full resolution on the upsampled features and
+    the input image before the output layer (0: the output layer alone sees full resolution, as in the paper)."""
+    normal_head: bool = False
+    """a separate full-resolution head (3x3 conv -> leaky ReLU -> 3x3 conv) for the normal's two outputs instead of
+    sharing the output layer with the other maps."""
+    normal_param: Literal["unit", "slope"] = "unit"
+    """how the network's two normal outputs become a normal: "unit" (tanh -> unit x, y, z reconstructed) or "slope"
+    (the outputs are the surface slopes, n = normalize(-dx, -dy, 1): how blends treat normals)."""
+
     def widths(self) -> list[int]:
         """Channels of each encoder level, finest first."""
         return [min(self.base_width * 2 ** i, self.max_width) for i in range(self.levels)]
@@ -104,6 +114,9 @@ class OptimConfig(ConfigModel):
     map_l1: float = Field(0.0, ge=0)
     """weight of an L1 term on the packed maps added to the rendering loss (0 = the 2018 paper's loss alone; the
     2019 follow-up, Deschaintre et al. "Flexible SVBRDF capture", mixes both)."""
+    normal_loss: Literal["l2", "slope", "cosine"] = "l2"
+    """the form of the ``normal_l2`` term: "l2" (squared error on the unit normals' x and y), "slope" (squared error on
+    the slopes x/z, y/z, which weights steep relief more) or "cosine" (1 - cosine between the normals)."""
     normal_l2: float = Field(0.0, ge=0)
     """weight of a squared-error term on the predicted normals' x and y added to the rendering loss (0 = off). The
     rendering loss alone leaves the normals flat within a CPU budget (README, known limits); RMSE is the metric, so

@@ -89,6 +89,17 @@ def lr_at(o: OptimConfig, step: int) -> float:
     return o.lr * (o.lr_final + (1.0 - o.lr_final) * 0.5 * (1.0 + math.cos(math.pi * t)))
 
 
+def normal_term(pred: torch.Tensor, maps: torch.Tensor, kind: str = "l2") -> torch.Tensor:
+    """The normal term's value (``optim.normal_loss``) on (B, 10, H, W) packed maps: mean squared error of the x, y
+    components ("l2") or of the slopes x/z, y/z ("slope"), or the mean of 1 - cosine ("cosine")."""
+    p, t = pred[:, 0:3], maps[:, 0:3]
+    if kind == "slope":
+        return ((p[:, 0:2] / p[:, 2:3].clamp(min=0.05) - t[:, 0:2] / t[:, 2:3].clamp(min=0.05)) ** 2).mean()
+    if kind == "cosine":
+        return (1.0 - (p * t).sum(1)).mean()
+    return ((p[:, 0:2] - t[:, 0:2]) ** 2).mean()
+
+
 def loss_terms(pred: torch.Tensor, maps: torch.Tensor, loss_fn, gen: torch.Generator, o: OptimConfig,
                configs: LossConfigs | None = None) -> torch.Tensor:
     """The training loss: ``render_weight`` x the rendering loss + ``map_l1`` x L1 on the packed maps + ``normal_l2``
@@ -104,7 +115,7 @@ def loss_terms(pred: torch.Tensor, maps: torch.Tensor, loss_fn, gen: torch.Gener
     if o.map_l1 > 0:
         terms.append(o.map_l1 * (pred - maps).abs().mean())
     if o.normal_l2 > 0:
-        terms.append(o.normal_l2 * ((pred[:, 0:2] - maps[:, 0:2]) ** 2).mean())
+        terms.append(o.normal_l2 * normal_term(pred, maps, o.normal_loss))
     return sum(terms[1:], terms[0])  # config validation guarantees at least one term
 
 

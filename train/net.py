@@ -103,8 +103,19 @@ class SVBRDFNet(nn.Module):
             self.dec.append(convs)
             self.drop.append(nn.Dropout(cfg.dropout) if n < cfg.dropout_levels and cfg.dropout > 0 else nn.Identity())
             cin = w[i]
+        # Optional full-resolution convolutions on the upsampled features + the input image (model.fullres_convs).
+        self.fullres = nn.ModuleList()
+        c_in = cin + 3
+        for _ in range(cfg.fullres_convs):
+            self.fullres.append(GlobalConv(c_in, w[0], 3, 1, 1, gdim, track))
+            c_in, gdim = w[0], w[0]
+        out_in = c_in + (3 if cfg.fullres_convs else 0)  # the image again beside the full-resolution features
+        # Optional separate normal head (model.normal_head): its own hidden layer, the normal's two outputs.
+        self.normal_head = nn.Sequential(nn.Conv2d(out_in, w[0], 3, 1, 1), nn.LeakyReLU(0.2),
+                                         nn.Conv2d(w[0], 2, 3, 1, 1)) if cfg.normal_head else None
+        self.normal_param = cfg.normal_param
         # Output layer at full resolution: skip from the input image; no norm, global bias only.
-        self.out_conv = nn.Conv2d(cin + 3, 9, 3, 1, 1)
+        self.out_conv = nn.Conv2d(out_in, 9, 3, 1, 1)
         self.out_bias = nn.Linear(gdim, 9) if track else None
         if track:
             nn.init.normal_(self.out_bias.weight, std=0.01)
@@ -121,6 +132,9 @@ class SVBRDFNet(nn.Module):
             self.out_conv.bias[6:9] = _logit(INIT_SPECULAR)
             if cfg.zero_output:
                 self.out_conv.weight.zero_()
+                if self.normal_head is not None:
+                    self.normal_head[2].weight.zero_()
+                    self.normal_head[2].bias.zero_()
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         """Args: image (B, 3, H, W) linear in [0, 1]. Returns (B, 10, H, W) packed maps."""
@@ -139,28 +153,45 @@ class SVBRDFNet(nn.Module):
                 x = F.leaky_relu(x, 0.2)
             x = drop(x)
         x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), x0], 1)
+        for conv in self.fullres:
+            x, g = conv(x, g)
+            x = F.leaky_relu(x, 0.2)
+        if self.fullres:
+            x = torch.cat([x, x0], 1)
         o = self.out_conv(x)
         if self.out_bias is not None:
             o = o + self.out_bias(g)[..., None, None]
-        return outputs_to_maps(o)
+        if self.normal_head is not None:
+            o = torch.cat([self.normal_head(x), o[:, 2:]], 1)
+        return outputs_to_maps(o, self.normal_param)
 
 
-def outputs_to_maps(o: torch.Tensor) -> torch.Tensor:
+def outputs_to_maps(o: torch.Tensor, normal_param: str = "unit") -> torch.Tensor:
     """Raw 9-channel outputs -> packed maps.
 
     Args:
         o: (B, 9, H, W): normal xy, diffuse (3), roughness (1), specular (3).
+        normal_param: "unit" (tanh -> x, y of the unit normal) or "slope" (the outputs are the surface's slopes
+            dh/dx, dh/dy and n = normalize(-dx, -dy, 1)).
 
     Returns:
         (B, 10, H, W): unit normal with reconstructed z > 0, diffuse, specular in [0, 1], roughness in
         [ROUGHNESS_MIN, 1].
     """
+    if normal_param == "slope":
+        n = torch.cat([-o[:, 0:2], torch.ones_like(o[:, 0:1])], 1)
+        return _maps(n * torch.rsqrt((n * n).sum(1, keepdim=True)), o)
     xy = torch.tanh(o[:, 0:2])
     # z from the unit-length constraint; the floor keeps sqrt's gradient finite when |xy| -> 1,
     # and the normalisation brings |xy| > 1 back onto the sphere.
     z = torch.sqrt((1.0 - (xy * xy).sum(1, keepdim=True)).clamp(min=1e-4))
     n = torch.cat([xy, z], 1)
     n = n * torch.rsqrt((n * n).sum(1, keepdim=True))
+    return _maps(n, o)
+
+
+def _maps(n: torch.Tensor, o: torch.Tensor) -> torch.Tensor:
+    """(B, 3, H, W) unit normals and the raw outputs (B, 9, H, W) -> (B, 10, H, W) packed maps."""
     diffuse = torch.sigmoid(o[:, 2:5])
     # roughness in [ROUGHNESS_MIN, 1], the renderer's domain: below the floor its clamp has zero gradient, and the
     # dvc model had 55 % of its held-out pixels there (a dead zone the loss could never pull them out of).

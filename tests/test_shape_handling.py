@@ -1,0 +1,140 @@
+"""Shape handling against an independent oracle: the normals of a transformed height field (#22).
+
+Every place that moves a normal map (training augmentation, the render's view transform, the extra relief of
+``svgen sample``) must give the normals that the moved *height* has. ``height_to_normal`` of the moved height is
+the oracle: it shares no rotation code with the transforms, so a normal turned the wrong way, a flip that forgets
+to negate x, or a slope with the wrong sign shows up as a mismatch of order one.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from materials.maps import SVBRDF, pack_maps
+from materials.noise import add_height, band_relief, height_slopes, height_to_normal
+from train.data import augment
+
+N = 32
+#: generator seeds whose augmentation draws are the 8 rotation/flip cases, one each (checked below).
+AUG_SEEDS = (0, 1, 2, 4, 8, 11, 14, 24)
+
+
+def smooth_height(n: int = N, amp: float = 0.02) -> np.ndarray:
+    """A periodic, asymmetric height (no rotation or mirror symmetry), in texture widths: (n, n) float32."""
+    t = 2 * np.pi * (np.arange(n) + 0.5) / n
+    u, v = np.meshgrid(t, t)  # u along columns, v along rows (down)
+    return (amp * (np.sin(u) + 0.6 * np.cos(2 * v + 0.3) + 0.4 * np.sin(u + v) + 0.3 * np.cos(u - 2 * v))
+            ).astype(np.float32) / (2 * np.pi)
+
+
+def maps_of(h: np.ndarray) -> SVBRDF:
+    n = h.shape[0]
+    grey = np.full((n, n, 3), 0.5, np.float32)
+    return SVBRDF(height_to_normal(h), grey, grey * 0.1, np.full((n, n, 1), 0.5, np.float32))
+
+
+@pytest.mark.parametrize("seed", AUG_SEEDS)
+def test_augmented_normals_are_the_normals_of_the_augmented_height(seed):
+    """The height rides along as an image channel (the crop is the whole map, so only rotations/flips act)."""
+    h = smooth_height()
+    img = np.repeat(h[..., None], 3, -1)
+    a_img, a_maps = augment(img, pack_maps(maps_of(h)), np.random.default_rng(seed), crop=N)
+    np.testing.assert_allclose(a_maps[..., 0:3], height_to_normal(np.ascontiguousarray(a_img[..., 0])), atol=1e-5)
+
+
+def test_the_augmentations_drawn_cover_every_rotation_and_flip():
+    """AUG_SEEDS draw all 8 rotation/flip cases (else a broken case could hide)."""
+    h = smooth_height()
+    img = np.repeat(h[..., None], 3, -1)
+    seen = {augment(img, img, np.random.default_rng(s), crop=N)[0][..., 0].tobytes() for s in AUG_SEEDS}
+    assert len(seen) == 8
+
+
+@pytest.mark.parametrize("rotation", [math.pi / 2, math.pi, 3 * math.pi / 2, 0.6])
+def test_view_normals_are_the_normals_of_the_viewed_height(rotation):
+    """The render's view transform (zoom 1: slopes keep their size) carries the height in the diffuse map; the view's
+    normals must be the normals of that rotated height. Quarter turns hit texel centres (exact up to float); 0.6 rad
+    interpolates bilinearly, hence the looser tolerance (the wrong direction misses by ~0.1)."""
+    pytest.importorskip("mitsuba")
+    from pipeline.render.views import ViewParams, transform_maps
+
+    n = 64
+    h = smooth_height(n)
+    base = maps_of(h)
+    lo, span = float(h.min()), float(h.max() - h.min())
+    base.diffuse = np.repeat(((h - lo) / span)[..., None], 3, -1).astype(np.float32)
+    out = transform_maps(base, ViewParams(zoom=1.0, rotation=rotation), n)
+    h_view = out.diffuse[..., 0] * span + lo
+    tol = 2e-4 if abs(rotation / (math.pi / 2) - round(rotation / (math.pi / 2))) < 1e-9 else 6e-3
+    # inside the picture only: a view at an odd angle is not periodic, so the oracle's wrapped differences at the
+    # picture's edges compare the two opposite edges
+    want = height_to_normal(h_view.astype(np.float32))
+    np.testing.assert_allclose(out.normal[1:-1, 1:-1], want[1:-1, 1:-1], atol=tol)
+
+
+def test_height_to_normal_faces_away_from_the_uphill_side():
+    """A height rising to the right tilts the normal left (x < 0); rising up the image (towards row 0) tilts it down
+    (y < 0): DESIGN.md's x right, y up, with numpy row 0 at the image top."""
+    n = N
+    t = (np.arange(n) + 0.5) / n
+    ramp = 0.01 * np.sin(2 * np.pi * t)  # rising where sin rises: the left quarter of the map
+    right = height_to_normal(np.tile(ramp, (n, 1)).astype(np.float32))
+    up = height_to_normal(np.tile(ramp[::-1, None], (1, n)).astype(np.float32))  # rising towards row 0 at the top
+    assert (right[:, 1:n // 4 - 1, 0] < 0).all() and np.abs(right[..., 1]).max() < 1e-6
+    assert (up[n - n // 4 + 1:n - 1, :, 1] < 0).all() and np.abs(up[..., 0]).max() < 1e-6
+
+
+def test_adding_heights_adds_slopes():
+    """add_height on a flat map is height_to_normal; on a relief it is the normal of the summed heights."""
+    h1, h2 = smooth_height(), smooth_height().T.copy() * 0.5
+    flat = np.zeros((N, N, 3), np.float32)
+    flat[..., 2] = 1
+    np.testing.assert_allclose(add_height(flat, h1), height_to_normal(h1), atol=1e-6)
+    np.testing.assert_allclose(add_height(height_to_normal(h1), h2), height_to_normal(h1 + h2), atol=1e-5)
+
+
+@pytest.mark.parametrize("cycles", [4.0, 12.0])
+def test_band_relief_has_its_slope_and_its_scale(cycles):
+    """The RMS slope is the one asked for, and the slope power peaks near the asked band."""
+    n = 128
+    h = band_relief(n, 3, cycles, 0.2)
+    sx, sy = height_slopes(h)
+    assert math.isclose(float(np.sqrt(np.mean(sx ** 2 + sy ** 2))), 0.2, rel_tol=1e-4)
+    p = np.abs(np.fft.fft2(h)) ** 2
+    k = np.fft.fftfreq(n, 1 / n)
+    f = np.hypot(*np.meshgrid(k, k))
+    slope_power = p * f ** 2
+    peak = float((slope_power * f).sum() / slope_power.sum())  # slope-power-weighted mean frequency
+    assert cycles * 0.8 < peak < cycles * 1.6
+
+
+@pytest.mark.parametrize("kind", ["l2", "slope", "cosine"])
+def test_normal_term_forms(kind):
+    """optim.normal_loss: 0 for the true normals; for one tilted pixel the hand-computed value of each form."""
+    import torch
+
+    from train.fit import normal_term
+
+    t = torch.zeros(1, 10, 1, 1)
+    t[0, 2] = 1.0
+    p = t.clone()
+    p[0, 0:3, 0, 0] = torch.tensor([0.6, 0.0, 0.8])
+    assert float(normal_term(t, t, kind)) == pytest.approx(0.0, abs=1e-7)
+    want = {"l2": 0.6 ** 2 / 2, "slope": 0.75 ** 2 / 2, "cosine": 1 - 0.8}[kind]
+    assert float(normal_term(p, t, kind)) == pytest.approx(want, rel=1e-5)
+
+
+def test_sample_relief_adds_its_band_to_a_variant_and_nothing_else():
+    """svgen sample's relief knob: off leaves the variant as it is; on adds exactly the band's slopes to its normals
+    and leaves the other maps alone."""
+    from pipeline.sample import with_relief
+    from svcore.seeds import derive_seed
+
+    m = maps_of(smooth_height(64))
+    assert with_relief(m, 7, 0.0, 8.0) is m
+    r = with_relief(m, 7, 0.2, 8.0)
+    np.testing.assert_allclose(r.normal, add_height(m.normal, band_relief(64, derive_seed(7, "sample", 1 << 20), 8.0, 0.2)))
+    for k in ("diffuse", "specular", "roughness"):
+        assert getattr(r, k) is getattr(m, k)
