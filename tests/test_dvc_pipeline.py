@@ -46,15 +46,18 @@ def sh(cmd, cwd, check=True, env=None, **kw):
 @pytest.fixture(scope="module")
 def project(tmp_path_factory):
     """A copy of the tracked files of this repository as a fresh git + DVC project with tiny params."""
+    return copy_project(tmp_path_factory.mktemp("proj"))
+
+
+def copy_project(d: Path, params: dict = TINY) -> Path:
+    """The tracked files of this repository copied into ``d`` as a fresh git + DVC project with ``params``."""
     if shutil.which("dvc") is None:
         pytest.fail("dvc is not installed: run scripts/setup.sh")
-    d = tmp_path_factory.mktemp("proj")
-    files = sh(["git", "ls-files"], REPO).stdout.split()
-    for f in files:
+    for f in sh(["git", "ls-files"], REPO).stdout.split():
         if (REPO / f).is_file():
             (d / f).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(REPO / f, d / f)
-    (d / "params.yaml").write_text(yaml.safe_dump(TINY))
+    (d / "params.yaml").write_text(yaml.safe_dump(params))
     (d / "dvc.lock").unlink(missing_ok=True)
     sh("git init -q && git add -A && git commit -qm init", d)
     return d

@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 from pathlib import Path
 
 import pytest
 import yaml
 
-from test_dvc_pipeline import ENV, REPO, TINY, sh
+from test_dvc_pipeline import ENV, REPO, copy_project, sh
 
 #: the shared CC0 reference folder beside the checkout (../shared/materials-cc0), or SVGEN_REFERENCE_DIR
 REFERENCE = Path(os.environ.get("SVGEN_REFERENCE_DIR") or REPO.parent / "shared" / "materials-cc0")
@@ -25,16 +24,9 @@ def reference_dir() -> Path:
     return REFERENCE
 
 
-@pytest.mark.skipif(shutil.which("dvc") is None, reason="dvc is not installed")
 def test_reference_stages_skip_when_no_sources(tmp_path):
-    d = tmp_path / "proj"
-    for f in sh(["git", "ls-files"], REPO).stdout.split():
-        if (REPO / f).is_file():
-            (d / f).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(REPO / f, d / f)
-    (d / "params.yaml").write_text(yaml.safe_dump(TINY))
-    (d / "dvc.lock").unlink(missing_ok=True)
-    sh("git init -q && git add -A && git commit -qm init", d)
+    (tmp_path / "proj").mkdir()
+    d = copy_project(tmp_path / "proj")
     r = sh(["dvc", "repro", "eval_reference"], d, env={**ENV, "SVGEN_WORKERS": "0"})
     assert "Running stage 'reference'" in r.stdout and "Running stage 'eval_reference'" in r.stdout, r.stdout
     said = [ln for ln in r.stdout.splitlines() if ln.startswith("no reference sources")]
