@@ -122,7 +122,7 @@ def run_arm(store: str, overrides: dict, steps: int, seed: int) -> dict:
 
     torch.set_num_threads(2)
     cfg = resolve("compact", None, {"data.store": store, "optim.iterations": steps, "optim.seed": seed,
-                                    "optim.compile_loss": False, **overrides})
+                                    **overrides})
     src = open_source(cfg.data)
     train_idx, test_idx = split_by_source(src, cfg.data.holdout, cfg.data.split_seed)
     ds = PairDataset(src, train_idx, cfg.data.crop, cfg.optim.seed, train=True, flips=cfg.data.augment)
