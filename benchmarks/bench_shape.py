@@ -61,7 +61,14 @@ ARMS = {
     "normal_w300": ("loss", "base", {"optim.normal_l2": 300.0}, 1, "normal term weight 300"),
     "steps_x2": ("steps", "base", {}, 2, "2x the steps"),
     "steps_x4": ("steps", "base", {}, 4, "4x the steps"),
+    "combo": ("combined", "c12s", {"model.base_width": 16, "model.max_width": 128}, 1,
+              "relief at 12 cycles/map, RMS slope 0.3 + base width 16 (the two largest single effects)"),
+    "combo_w8": ("combined", "c12s", {"optim.normal_l2": 300.0}, 1,
+                 "relief at 12 cycles/map, RMS slope 0.3 + normal term weight 300 (width 8)"),
 }
+#: the probes' baseline network, pinned (the compact preset's widths when the grid was run), so that a later change
+#: of the compact default (the grid chose base width 16) does not change what the baseline arm means
+PROBE_BASE = {"model.base_width": 8, "model.max_width": 64}
 #: evaluated views: at most this many held-out views (evenly spaced) and training views.
 EVAL_VIEWS, TRAIN_VIEWS = 96, 48
 
@@ -122,7 +129,7 @@ def run_arm(store: str, overrides: dict, steps: int, seed: int) -> dict:
 
     torch.set_num_threads(2)
     cfg = resolve("compact", None, {"data.store": store, "optim.iterations": steps, "optim.seed": seed,
-                                    **overrides})
+                                    **PROBE_BASE, **overrides})
     src = open_source(cfg.data)
     train_idx, test_idx = split_by_source(src, cfg.data.holdout, cfg.data.split_seed)
     ds = PairDataset(src, train_idx, cfg.data.crop, cfg.optim.seed, train=True, flips=cfg.data.augment)
@@ -275,7 +282,8 @@ def chart(summary: dict, png: Path, steps: int, choice: str) -> None:
 
     names = [n for n in ARMS if n in summary]
     fig, ax = plt.subplots(figsize=(8, 0.42 * len(names) + 1.5))
-    colours = {"baseline": "0.3", "data": "tab:green", "network": "tab:blue", "loss": "tab:orange", "steps": "tab:purple"}
+    colours = {"baseline": "0.3", "data": "tab:green", "network": "tab:blue", "loss": "tab:orange", "steps": "tab:purple",
+               "combined": "tab:red"}
     for y, n in enumerate(names):
         r = summary[n]
         for split, mk, off in (("heldout", "o", 0.0), ("train", "x", 0.18)):
