@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import shutil
 from pathlib import Path
 from typing import Callable
 
@@ -23,6 +25,7 @@ import numpy as np
 from materials.maps import SVBRDF, encode_normal
 
 from svcore.errors import StoreError
+from svcore.outputs import FORCE_FLAG, holds_something, refuse_existing
 from svcore.image_io import srgb_encode, write_exr, write_png
 from svcore.progress import progress
 
@@ -92,29 +95,63 @@ FORMAT_ENCODINGS = {"input": "linear LDR [0,1]", "normal": "(n+1)/2 (deschaintre
                     "specular": "linear F0 (deschaintre/exr), sRGB (png)"}
 
 
-def export(store, out, fmt: str, limit: int | None = None) -> int:
+#: what an export folder holds, in every format: per view ``0000012.png`` + ``0000012.json`` or a folder ``0000012``
+EXPORT_ENTRY = re.compile(r"\d{7}(\.png|\.json)?")
+
+
+def is_export(path: Path) -> bool:
+    """Whether ``path`` is a folder that holds nothing but what an export writes (what ``--force`` may replace)."""
+    return path.is_dir() and not path.is_symlink() and all(EXPORT_ENTRY.fullmatch(p.name) for p in path.iterdir())
+
+
+def _check_out(out: Path, store, force: bool) -> None:
+    """The output checks, before any work: not inside the store, and the one overwrite rule
+    (:func:`svcore.outputs.refuse_existing`), ``--force`` replacing only an export."""
+    refuse_inside(out, store)
+    refuse_existing([out], force)
+    if force and holds_something(out) and not is_export(out):
+        raise StoreError(f"output {out} exists and is not an export (it holds files an export does not write); "
+                         f"{FORCE_FLAG} replaces only an export: delete it yourself or choose another path")
+
+
+def _fresh_partial(out: Path) -> Path:
+    """The empty ``<out>.partial`` folder to write into (an interrupted export's is cleared)."""
+    tmp = out.with_name(out.name + ".partial")
+    if tmp.exists():
+        if not is_export(tmp):
+            raise StoreError(f"{tmp} exists and is not an interrupted export; delete it or choose another path")
+        shutil.rmtree(tmp)  # an interrupted export: its views may be of another store or format
+    tmp.mkdir(parents=True)
+    return tmp
+
+
+def export(store, out, fmt: str, limit: int | None = None, force: bool = False) -> int:
     """Write every view (or the first ``limit``) of a renders store to ``out`` in format ``fmt``.
 
-    Writes into ``<out>.partial`` and renames when complete, so a killed export never looks complete.
+    Writes into ``<out>.partial`` and renames when complete, so a killed export never looks complete. An ``out``
+    that holds files is refused unless ``force``, and then replaced only once the new export is complete, and only
+    if it is an export (:func:`is_export`): ``--force`` never deletes a folder of other files.
 
     Returns:
         number of views written.
+
+    Raises:
+        StoreError: an unknown format; ``out`` inside the store, existing without ``force``, or not an export.
     """
     from .render.store import RendersReader
 
     if fmt not in FORMATS:
         raise StoreError(f"unknown export format {fmt!r}; known: {', '.join(FORMATS)}")
     out = Path(out)
-    refuse_inside(out, store)
-    if out.exists():
-        raise StoreError(f"output {out} already exists; choose another path or delete it")
+    _check_out(out, store, force)
     reader = RendersReader(store)
+    tmp = _fresh_partial(out)
     n = len(reader) if limit is None else min(limit, len(reader))
-    tmp = out.with_name(out.name + ".partial")
-    tmp.mkdir(parents=True, exist_ok=True)
     with progress(n, f"export {fmt}", unit="view") as bar:
         for i in range(n):
             FORMATS[fmt](tmp, f"{i:07d}", reader.image(i), reader.maps(i), view_meta(reader, i))
             bar.update(1)
-    os.replace(tmp, out)
+    if holds_something(out):  # --force, checked above: the old export goes only now that the new one is whole
+        shutil.rmtree(out)
+    os.replace(tmp, out)  # rename(2) replaces an empty folder
     return n

@@ -147,11 +147,16 @@ def render_card(group) -> str:
     meta = attrs.get("svgen", {})
     kind = meta.get("kind", "?")
     n = int(meta.get("n", 0))
+    from .labels import LABELS, label_array
+
     arrays = []
-    for name in sorted(meta.get("arrays", {})):
+    names = [*meta.get("arrays", {}), *(label_array(i) for i in LABELS if label_array(i) in group)]
+    for name in sorted(names):
         arr = group[name]
         dims = list(arr.metadata.dimension_names or [])
-        arrays.append((name, dims, list(arr.shape), str(arr.dtype), dict(arr.attrs)))
+        # Hugging Face's (and Arrow's) name of a variable-length UTF-8 string (storage.labels)
+        dtype = "string" if arr.dtype.kind in "OTU" else str(arr.dtype)
+        arrays.append((name, dims, list(arr.shape), dtype, dict(arr.attrs)))
     views = int(group["image"].shape[1]) if kind == "renders" and "image" in group else 1
     split = attrs.get("split")
     from huggingface_hub import DatasetCard, DatasetCardData
@@ -192,7 +197,8 @@ def render_card(group) -> str:
                        f"{va.get('field_long_names', {}).get(f, '')} |")
     for key in ("presets", "categories"):
         if attrs.get(key):
-            out += ["", f"`{key}` (group attribute; index arrays point into it): "
+            out += ["", f"`{key}` (group attribute; index arrays point into it, their `*_name` arrays hold the "
+                        "names): "
                         + ", ".join(f"`{p}`" for p in attrs[key]) + "."]
     if kind == "renders":
         scene = attrs.get("scene", {})

@@ -3,9 +3,10 @@
 ``xr.open_zarr(store)`` already opens every store (named dimensions, CF ``scale_factor``/``add_offset``, global CF
 attributes); what xarray cannot take from the zarr metadata alone, this adds:
 
-* ``preset`` and ``category`` become labelled string coordinates (the stored arrays are indices into the group's
-  ``presets``/``categories`` lists, which keeps the chunks small and fixed-size; a stored string array would need a
-  zarr data type outside the v3 core spec);
+* ``preset`` and ``category`` become labelled string coordinates under their own names (the stored arrays are
+  indices into the group's ``presets``/``categories`` lists, which every svgen reader reads; plain ``xr.open_zarr``
+  shows the names as the coordinates ``preset_name``/``category_name`` of stores that have them,
+  :mod:`storage.labels`, which this drops as duplicates);
 * maps decode to float32: xarray picks the decoded type from the type of ``scale_factor``, and a JSON attribute
   is always a float64; 16-bit codes need no more than float32's 24 bits. The CF encoding (``dtype`` uint16,
   ``scale_factor``, ``add_offset``) stays in ``.encoding``, so writing the dataset stores the codes again;
@@ -21,8 +22,7 @@ import os
 
 import numpy as np
 
-#: (index array, group attribute with its labels) made into string coordinates
-LABELS = {"preset": "presets", "category": "categories"}
+from .labels import LABELS, label_array
 
 
 def _netcdf_attr(v):
@@ -65,6 +65,8 @@ def open_dataset(path: str | os.PathLike, storage_options: dict | None = None):
             out.attrs, out.encoding = var.attrs, dict(var.encoding)
             ds[name] = out
     attrs = dict(g.attrs)
+    # the stored name arrays (storage.labels) duplicate the string coordinates made below under the index's own name
+    ds = ds.drop_vars([label_array(i) for i in LABELS if label_array(i) in ds.variables])
     for index, labels in LABELS.items():
         if index in ds.data_vars and attrs.get(labels):
             names = np.array([*attrs[labels], ""], dtype=str)  # -1 picks the ""

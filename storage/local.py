@@ -410,6 +410,11 @@ class StoreWriter:
         now = _store_versions()["svgen"]
         if meta["svgen"].get("versions", {}).get("svgen") != now:  # resumed by other code than started it
             meta["svgen"]["versions"] = {**meta["svgen"].get("versions", {}), "svgen_finished_by": now}
+        from .labels import write_labels
+
+        for name in write_labels(g, meta, self.chunk, _compressors()):  # derived, so no marker: hashed here
+            manifest["arrays"][name] = [_file_record(self.partial / name / _chunk_key(g[name], c))
+                                        for c in range(self.n_chunks)]
         g.attrs.put(meta)
         shutil.rmtree(self.partial / DONE_DIR)
         # zarr's LocalStore writes each chunk to "<key>.<uuid hex>.partial" and renames it: a kill mid-write leaves

@@ -234,7 +234,13 @@ class ObjectStoreWriter(S.StoreWriter):
             meta.update(attrs or {})
             meta["svgen"] = {**meta["svgen"], "complete": False, "manifest": S.MANIFEST,
                              "schema_version": S.finished_schema(meta["svgen"])}
-            zarr.open_group(st, mode="r+").attrs.put(meta)
+            from .labels import write_labels
+
+            g = zarr.open_group(st, mode="r+")
+            for name in write_labels(g, meta, self.chunk, S._compressors()):  # derived: hashed here, no marker
+                manifest["arrays"][name] = [record_of(self.loc.read_or_none(f"{name}/{S._chunk_key(g[name], c)}"))
+                                            for c in range(self.n_chunks)]
+            g.attrs.put(meta)
             zarr.consolidate_metadata(st)
             self.loc.write(S.MANIFEST, json.dumps(manifest, sort_keys=True, separators=(",", ":")).encode())
             meta["svgen"]["complete"] = True

@@ -77,6 +77,36 @@ def test_export_writes_the_deschaintre_layout_that_matches_the_store(stores, tmp
     assert meta["light"][:2] == [float(v.light_x), float(v.light_y)] and meta["seed"] == int(v.seed)
 
 
+def test_export_refuses_an_existing_output_unless_force_and_replaces_only_an_export(stores, tmp_path, svgen_cli):
+    """The one overwrite rule (svcore.outputs, issue 25 item 8): an output holding files is refused in one line,
+    exit 2, untouched; --force replaces an earlier export, never a folder of other files; an empty folder is no
+    existing output."""
+    r = stores / "r.zarr"
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    for extra in ((), ("--force",)):
+        code, out = svgen_cli("export", r, mine, *extra)
+        assert code == 2 and out.count("\n") == 1, out
+        assert ("already exists" in out and "--force" in out) if not extra else "is not an export" in out, out
+        assert [p.name for p in mine.iterdir()] == ["notes.txt"] and (mine / "notes.txt").read_text() == "keep"
+    old = tmp_path / "old"
+    assert svgen_cli("export", r, old, "--format", "png", "--limit", "1")[0] == 0
+    code, out = svgen_cli("export", r, old)
+    assert code == 2 and out.count("\n") == 1 and "already exists" in out and "--force" in out, out
+    assert sorted(p.name for p in old.iterdir()) == ["0000000"]  # the png export, as it was
+    code, out = svgen_cli("export", r, old, "--force")
+    assert code == 0, out
+    from pipeline.render.store import RendersReader
+
+    n = len(RendersReader(r))
+    assert sorted(p.name for p in old.iterdir()) == sorted(f"{i:07d}.{e}" for i in range(n) for e in ("png", "json"))
+    assert not (tmp_path / "old.partial").exists()
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert svgen_cli("export", r, empty, "--limit", "1")[0] == 0 and len(list(empty.iterdir())) == 2
+
+
 def test_blend_mask_mode_through_a_store(stores, tmp_path, svgen_cli):
     from pipeline.blend import draw, make_blend
     from pipeline.config import BlendConfig

@@ -218,7 +218,8 @@ def test_every_finished_store_has_its_card(stores, name, svgen_cli):
     n = attrs["svgen"]["n"]
     views = zarr.open_group(path, mode="r")["image"].shape[1] if name == "renders" else 1
     assert sum(s["num_examples"] for s in front["dataset_info"]["splits"]) <= n * views
-    assert {f["name"] for f in front["dataset_info"]["features"]} == set(attrs["svgen"]["arrays"])
+    labels = {f"{i}_name" for i in ("preset", "category") if i in attrs["svgen"]["arrays"]}  # storage.labels
+    assert {f["name"] for f in front["dataset_info"]["features"]} == set(attrs["svgen"]["arrays"]) | labels
     for section in ("## What it contains", "## How it was made", "## Intended use", "## Known limits",
                     "## Licence", "## Citation", "Deschaintre"):
         assert section in text, section
@@ -366,6 +367,68 @@ def test_open_dataset_maps_are_float32_with_the_cf_encoding_kept(stores, name):
         np.testing.assert_allclose(ds[k].values, raw[k].values, rtol=0, atol=F32, err_msg=k)
 
 
+@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+def test_plain_open_zarr_gives_the_names_as_string_coordinates(stores, name):
+    """Without svgen (issue 25 item 11): ``xr.open_zarr`` makes ``preset_name``/``category_name`` string
+    coordinates equal to what svgen's readers resolve the stored indices to (open_dataset's labels)."""
+    from storage.dataset import open_dataset
+
+    path = stores / f"{name}.zarr"
+    ds, ref = xr.open_zarr(path), open_dataset(path)
+    found = [i for i in ("preset", "category") if i in ds.variables]
+    assert "preset" in found and (name != "stress" or "category" in found), found
+    for index in found:
+        label = f"{index}_name"
+        assert label in ds.coords and ds[label].dims == ds[index].dims, (label, list(ds.coords))
+        values = ds[label].values
+        assert values.dtype.kind in "UT" and all(type(v) is str for v in values.ravel()), values.dtype
+        if ref[index].dtype.kind == "U":  # labelled by svgen from the group attribute
+            assert values.tolist() == ref[index].values.tolist(), label
+        else:  # no names in the store: every index is -1
+            assert (ds[index].values == -1).all() and set(values.ravel().tolist()) == {""}, label
+    assert label_free(ref), list(ref.variables)
+    if name == "variants":
+        sel = ds.sel(sample=(ds["preset_name"][:, 0] == PRESETS[1]).compute())  # a lazy coordinate, like the maps
+        assert sel.sizes["sample"] == 1 and sel["diffuse"].shape[0] == 1
+
+
+def label_free(ds) -> bool:
+    """open_dataset labels the index arrays under their own names: no stored ``*_name`` duplicate stays."""
+    return not any(v.endswith("_name") for v in ds.variables)
+
+
+@pytest.mark.parametrize("name", ["variants", "renders"])
+def test_plain_open_zarr_maps_are_float64_as_the_readme_says(stores, name):
+    """What plain ``xr.open_zarr`` cannot do (README, "Reading the data without svgen"): xarray takes the decoded
+    float type from the Python type of ``scale_factor``/``add_offset``, and zarr attributes are JSON, whose numbers
+    read back as float64. If this fails, xarray decodes the 16-bit maps to float32 by itself: update the README
+    and storage.dataset, which then has one thing less to do."""
+    ds = xr.open_zarr(stores / f"{name}.zarr")
+    for k in ("diffuse", "normal", "specular", "roughness"):
+        assert ds[k].encoding["dtype"] == np.uint16 and ds[k].dtype == np.float64, (k, ds[k].dtype)
+        assert isinstance(ds[k].encoding["scale_factor"], float), k
+
+
+def test_a_store_finished_without_name_arrays_still_opens(tmp_path, monkeypatch):
+    """Stores finished before storage.labels (no ``*_name`` arrays, no ``coordinates`` attribute) read as before:
+    svgen's readers, open_dataset's labels and plain xarray."""
+    import storage.labels
+    from pipeline.config import SampleConfig
+    from pipeline.sample import run_sample
+    from storage.dataset import open_dataset
+    from storage.svbrdf_store import SVBRDFStore
+    from svcore.config import build
+
+    out = tmp_path / "old.zarr"
+    monkeypatch.setattr(storage.labels, "write_labels", lambda *a: [])  # svgen as it was
+    run_sample(out, build(SampleConfig, "tiny", presets=PRESETS[:2], per_preset=1, chunk=1), workers=0)
+    assert "preset_name" not in zarr.open_group(out, mode="r")
+    st = SVBRDFStore(out)
+    assert sorted(st.presets[i] for i in st.preset_table()[:, 0]) == sorted(PRESETS[:2])
+    assert "preset_name" not in xr.open_zarr(out).variables
+    assert sorted(open_dataset(out)["preset"][:, 0].values.tolist()) == sorted(PRESETS[:2])
+
+
 def test_open_dataset_chunks_by_shard(stores):
     from storage.dataset import open_dataset
 
@@ -409,7 +472,7 @@ def test_card_metadata_is_valid_hugging_face_dataset_card_data(stores, name):
     g = zarr.open_group(path, mode="r")
     assert set(features) == set(g.array_keys())
     for k, f in features.items():
-        shape, dtype = g[k].shape[1:], str(g[k].dtype)
+        shape, dtype = g[k].shape[1:], "string" if g[k].dtype.kind in "OTU" else str(g[k].dtype)
         if isinstance(f, Value):
             assert shape == () and f.dtype == dtype, k
         elif hasattr(f, "length"):

@@ -88,7 +88,7 @@ def test_the_manifest_lists_fill_value_chunks_and_refuses_one_that_appears(store
 def test_verify_store_rehashes_what_the_cheap_check_does_not(stores, tmp_path):
     v = tmp_path / "v.zarr"
     shutil.copytree(stores / "v.zarr", v)
-    assert verify_store(v) == 4 * 7  # 4 chunks x 7 arrays, none all fill value
+    assert verify_store(v) == 4 * 8  # 4 chunks x 8 arrays (7 and preset_name: storage.labels), none all fill value
     f = v / "diffuse" / "c" / "1" / "0" / "0" / "0"
     data = bytearray(f.read_bytes())
     data[len(data) // 2] ^= 0xFF  # same size: the open-time stat cannot see it
