@@ -87,7 +87,7 @@ class LineProgress:
                 or (self.every and self.n - self._last_n >= self.every)):
             self._line(now)
 
-    def set_postfix(self, **values) -> None:
+    def set_postfix(self, refresh: bool = True, **values) -> None:
         self.postfix = ", ".join(f"{k}={v}" for k, v in values.items())
 
     def line(self, now: float | None = None) -> str:

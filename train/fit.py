@@ -453,8 +453,8 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
                 raise SvgenError(f"the loss became {loss} at step {step - 1}: lower optim.lr or set optim.grad_clip "
                                  f"(the last checkpoint in {out} is from before it)")
             losses.append(loss)
+            bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}", refresh=False)  # shown by the update
             bar.update(1)
-            bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}")
             if loss_csv is not None and step % o.log_every == 0:
                 loss_csv.write(_row(step, float(np.mean(losses[-o.log_every:]))))
                 loss_csv.flush()  # a reader (or a killed run) sees every row written so far
