@@ -67,6 +67,11 @@ class DataConfig(ConfigModel):
     """fraction of source materials/presets held out for evaluation (split by material, not sample)."""
     workers: int = Field(2, ge=0)
     """DataLoader worker processes (0 = load in the main process)."""
+    loader_memory_mib: int = Field(0, ge=0)
+    """MiB the store reader's caches may hold over the whole run on this machine, divided among the processes
+    that read (every rank's main process and its ``workers``; train/loader_memory.py); 0 = automatic: the smaller
+    of 4 GiB and a quarter of the memory available at the start. Workers that cannot get the reader's minimum
+    from it, or from the machine, are refused in one line."""
     split_seed: int = Field(DEFAULT_SEED, ge=0, lt=2 ** 64)
     """seed of the held-out split (:mod:`svcore.split`), separate from ``optim.seed`` so that training seeds vary the
     training only; the default is the split a renders store records (its ``split`` attribute)."""
@@ -104,6 +109,9 @@ class OptimConfig(ConfigModel):
     """master seed: data order, augmentation, loss configurations, weights, dropout."""
     checkpoint_every: int = Field(200, ge=1)
     """steps between checkpoints (and at the end / on interruption)."""
+    checkpoint_minutes: float = Field(10.0, ge=0)
+    """also checkpoint when this many minutes passed since the last checkpoint, so a killed long run loses
+    minutes (0 = by steps only)."""
     log_every: int = Field(10, ge=1)
     """steps between rows of the loss log."""
     threads: int = Field(0, ge=0)

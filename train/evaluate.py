@@ -210,7 +210,7 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
     else:
         methods.pop("model")
         acc.pop("model")
-    with progress(len(ds), desc, unit="sample") as bar:
+    with progress(len(ds), desc, unit="sample", lines=True) as bar:
         for lo in range(0, len(ds), batch_size):
             items = [ds[k] for k in range(lo, min(lo + batch_size, len(ds)))]
             img = torch.stack([x[0] for x in items]).to(device)

@@ -33,7 +33,7 @@ from svcore.progress import progress
 from svcore.seeds import stream_seed
 from svcore.versions import library_versions
 
-from . import checkpoint, dvc_metrics, heldout, runinfo
+from . import checkpoint, dvc_metrics, heldout, loader_memory, runinfo
 from .config import Config, OptimConfig
 from .data import PairDataset, make_loader, open_source, split_for
 from .device import Placement, placement
@@ -260,17 +260,32 @@ class Trainer:
                         self.world.size)
 
 
+def loss_rows(losses: list[float], every: int, partial: bool = True) -> list[tuple[int, float]]:
+    """(step, mean loss of the ``every`` steps up to it) for each full block of steps, and with ``partial`` the
+    last, shorter block."""
+    arr = np.asarray(losses, np.float64)
+    rows = [(end, float(arr[end - every:end].mean())) for end in range(every, len(arr) + 1, every)]
+    if partial and len(arr) % every:
+        rows.append((len(arr), float(arr[len(arr) - len(arr) % every:].mean())))
+    return rows
+
+
+def _row(step: int, value: float) -> str:
+    return f"{step},{value:.6g}\n"
+
+
+def write_loss_csv(path: Path, rows: list[tuple[int, float]]) -> None:
+    """``loss.csv`` with these rows (the run's rows so far: a resumed run drops those after its checkpoint)."""
+    with open(path, "w") as f:
+        f.write("step,loss\n")
+        f.writelines(_row(s, v) for s, v in rows)
+
+
 def _write_outputs(out: Path, cfg: Config, losses: list[float], extra: dict) -> dict:
     o = cfg.optim
     arr = np.asarray(losses, np.float64)
-    rows = []
-    for end in range(o.log_every, len(arr) + 1, o.log_every):
-        rows.append((end, float(arr[end - o.log_every:end].mean())))
-    if len(arr) % o.log_every:
-        rows.append((len(arr), float(arr[len(arr) - len(arr) % o.log_every:].mean())))
-    with open(out / "loss.csv", "w") as f:
-        f.write("step,loss\n")
-        f.writelines(f"{s},{v:.6g}\n" for s, v in rows)
+    rows = loss_rows(losses, o.log_every)
+    write_loss_csv(out / "loss.csv", rows)
     tail = arr[-max(1, min(len(arr), 5 * o.log_every)):] if len(arr) else arr
     metrics = {"step": int(len(arr)), "loss_final": float(tail.mean()) if len(tail) else None,
                "loss_first": float(arr[:o.log_every].mean()) if len(arr) else None, **extra}
@@ -295,6 +310,29 @@ def _plot(path: Path, rows: list[tuple[int, float]]) -> None:
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+class CheckpointClock:
+    """When ``optim.checkpoint_minutes`` have passed since the last checkpoint (0: never by time).
+
+    Checkpointing is a collective under a data-parallel run, so every rank must decide alike: there rank 0's clock
+    decides, broadcast every ``sync_every`` steps (one small collective per loss-log row, not per step).
+    """
+
+    def __init__(self, minutes: float, world: World):
+        self.interval, self.world = 60.0 * float(minutes), world
+        self.reset()
+
+    def reset(self) -> None:
+        self.last = time.monotonic()
+
+    def due(self, step: int, sync_every: int) -> bool:
+        if not self.interval:
+            return False
+        late = time.monotonic() - self.last >= self.interval
+        if self.world.size <= 1:
+            return late
+        return step % sync_every == 0 and bool(broadcast(late, self.world))
 
 
 def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None, stop_after: int | None = None,
@@ -332,6 +370,8 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None
                     "generated samples), not on rendered data", cfg.data.synthetic_samples)
     train_idx, test_idx = split_for(src, cfg.data)
     runinfo.check_run(cfg, out_dir, len(train_idx), global_batch, rank_batch, place.device, world.local_size)
+    # the reader's caches: this process's share of the run's budget, before any worker copies the reader
+    loader_memory.share(src, loader_memory.per_process(cfg.data, src, world.local_size))
     out = Path(out_dir)
     if world.main:
         out.mkdir(parents=True, exist_ok=True)
@@ -401,25 +441,37 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
     probe_at(start)
     t0 = time.perf_counter()
     bar = progress(total=o.iterations, desc="fit", unit="it", initial=start, disable=(not world.main) or (
-        None if show_progress is None else not show_progress))
+        None if show_progress is None else not show_progress), lines=True)
+    loss_csv = None
+    if world.main:  # appended as the run goes; a resumed run first drops the rows after its checkpoint
+        write_loss_csv(out / "loss.csv", loss_rows(losses, o.log_every, partial=False))
+        loss_csv = open(out / "loss.csv", "a")
+    ckpt_clock = CheckpointClock(o.checkpoint_minutes, world)
     try:
         for step, loss, _ in trainer.run(ds, start, stop):
             if not math.isfinite(loss):  # the weights are now non-finite too: keep the last good checkpoint
                 raise SvgenError(f"the loss became {loss} at step {step - 1}: lower optim.lr or set optim.grad_clip "
                                  f"(the last checkpoint in {out} is from before it)")
             losses.append(loss)
+            bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}", refresh=False)  # shown by the update
             bar.update(1)
-            bar.set_postfix(loss=f"{np.mean(losses[-o.log_every:]):.4f}")
+            if loss_csv is not None and step % o.log_every == 0:
+                loss_csv.write(_row(step, float(np.mean(losses[-o.log_every:]))))
+                loss_csv.flush()  # a reader (or a killed run) sees every row written so far
             if o.eval_every and step % o.eval_every == 0:
                 probe_at(step)
-            if step % o.checkpoint_every == 0 and step < stop:
+            if step < stop and (step % o.checkpoint_every == 0 or ckpt_clock.due(step, o.log_every)):
                 save(step)
+                ckpt_clock.reset()
     except KeyboardInterrupt:
         bar.close()
         if world.size == 1:  # under a data-parallel run the peers may be gone: the last periodic checkpoint stands
             save(step)
             log.info("interrupted at step %d; checkpoint saved, rerun the same command to resume", step)
         raise
+    finally:
+        if loss_csv is not None:
+            loss_csv.close()
     bar.close()
     elapsed = time.perf_counter() - t0
     if step >= o.iterations:

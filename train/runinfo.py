@@ -41,14 +41,15 @@ code_digest = versions.code_digest
 def resume_key(cfg, data: dict) -> str:
     """What a checkpoint must have been trained from for ``svtrain fit --resume-if-unchanged`` to continue it:
     the resolved config (less the store's spelling and the loader's worker count, which do not change a step's
-    result), the training data's identity (``data``: a store's kind, config hash and size, or the synthetic
+    result, nor do the loader's memory budget and the checkpoint interval), the training data's identity (``data``: a store's kind, config hash and size, or the synthetic
     source's settings; :func:`train.fit.provenance`) and :func:`code_digest`.
 
     DVC reruns the fit stage when its params, store or code change, and also when a killed run left no model:
     only the second case may continue the checkpoint it finds.
     """
     conf = cfg.to_dict()
-    conf["data"] = {k: v for k, v in conf["data"].items() if k not in ("store", "workers")}
+    conf["data"] = {k: v for k, v in conf["data"].items() if k not in ("store", "workers", "loader_memory_mib")}
+    conf["optim"] = {k: v for k, v in conf["optim"].items() if k != "checkpoint_minutes"}
     ident = data_identity(data)
     blob = json.dumps({"config": conf, "data": ident, "code": code_digest()}, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()
@@ -58,7 +59,8 @@ def resume_key(cfg, data: dict) -> str:
 #: (its identity is compared instead), machine settings that change no step's result, and the batch per process
 #: (the global batch, which decides the data order, is checked by train.fit.Trainer.load).
 RESUMABLE_KEYS = frozenset({"optim.iterations", "data.store", "data.workers", "optim.threads", "compute.device",
-                            "compute.nproc", "compute.global_batch", "optim.batch_size"})
+                            "compute.nproc", "compute.global_batch", "optim.batch_size", "data.loader_memory_mib",
+                            "optim.checkpoint_minutes"})
 
 
 def _flat(d: dict, prefix: str = "") -> dict:

@@ -26,11 +26,12 @@ Group attributes beside the arrays: ``scene`` (its constants, the Mitsuba varian
 """
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
 
-from materials.maps import MAP_NAMES, SVBRDF
+from materials.maps import MAP_NAMES, N_CHANNELS, SVBRDF
 
 from svcore.errors import StoreError
 
@@ -93,26 +94,53 @@ def view_attrs() -> dict:
 class RendersReader:
     """Read access to a renders store: images, aligned maps, view parameters, provenance.
 
+    Two caches make random access cheap: decoded store chunks (:class:`~storage.store.ChunkCache`) and the base
+    maps of recently read SVBRDFs as drjit planes (what :meth:`crop` transforms). They share one byte budget, half
+    each; a training loader gives every worker process its share of the run's budget (:meth:`set_cache_bytes`,
+    train/loader_memory.py), since each worker holds its own copy of the reader.
+
     Args:
         path: a complete renders store.
+        cache_bytes: bytes both caches may hold together (default :attr:`CACHE_BYTES`).
 
     Raises:
         StoreError: missing, incomplete, or not a renders store.
     """
 
-    CACHE_BYTES = 2 << 30  # decoded chunks kept per reader (per loader worker)
-    PLANE_CACHE = 384  # SVBRDFs whose base maps stay as drjit planes (2.6 MB each at 256^2)
+    CACHE_BYTES = 2 << 30  # default budget of one reader's caches (half chunks, half planes: ~400 planes at 256^2)
 
-    def __init__(self, path):
+    def __init__(self, path, cache_bytes: int | None = None):
         self.path = path
         self.group = open_store(path, KIND)
         self.attrs = dict(self.group.attrs)
         shape = self.group["image"].shape
         self.n_svbrdf, self.views, self.res = int(shape[0]), int(shape[1]), int(shape[2])
         self.base_res = int(self.group["diffuse"].shape[1])
-        self._cache = ChunkCache(self.group, self.CACHE_BYTES)
+        self._cache = ChunkCache(self.group, 0)
         self._views: np.ndarray | None = None
         self._planes: dict[int, list] = {}
+        self.set_cache_bytes(self.CACHE_BYTES if cache_bytes is None else cache_bytes)
+
+    @property
+    def plane_bytes(self) -> int:
+        """Bytes of one SVBRDF's base maps as planes: 10 float32 channels at the base resolution."""
+        return self.base_res ** 2 * N_CHANNELS * 4
+
+    def min_cache_bytes(self) -> int:
+        """The smallest useful budget: one chunk of every array a training read touches, plus one SVBRDF's planes
+        (what a single :meth:`crop` holds at once), as half of the budget."""
+        chunk = sum(math.prod(self.group[k].chunks) * self.group[k].dtype.itemsize for k in ("image", *MAP_NAMES))
+        return 2 * max(chunk, self.plane_bytes)
+
+    def set_cache_bytes(self, n: int) -> None:
+        """Hold at most ``n`` bytes in the caches (half decoded chunks, half planes); evicts what is over."""
+        self.cache_bytes = int(n)
+        self._cache.budget = self.cache_bytes // 2
+        while self._cache._chunks and self._cache._bytes > self._cache.budget:
+            self._cache._bytes -= self._cache._chunks.pop(next(iter(self._cache._chunks))).nbytes
+        self.plane_cache = max(1, self.cache_bytes // 2 // self.plane_bytes)  # SVBRDFs kept as planes
+        while len(self._planes) > self.plane_cache:
+            self._planes.pop(next(iter(self._planes)))
 
     def __len__(self) -> int:
         return self.n_svbrdf * self.views
@@ -161,7 +189,7 @@ class RendersReader:
         if not (0 <= row0 and 0 <= col0 and row0 + size <= self.res and col0 + size <= self.res):
             raise IndexError(f"crop {size} at ({row0}, {col0}) leaves the {self.res}^2 view")
         if s not in self._planes:
-            if len(self._planes) >= self.PLANE_CACHE:
+            if len(self._planes) >= self.plane_cache:
                 self._planes.pop(next(iter(self._planes)))
             self._planes[s] = planes_of(self.base_maps(s))
         planes = transform_planes(self._planes[s], self.base_res, self.view_params(i), self.res, (row0, col0, size))
