@@ -67,7 +67,8 @@ def stones(tex: Tex, n: float, jitter: float, gap: float, enabled: bool = True, 
         return {"mask": z, "dome": z, "id": cid, "rnd": rnd, "n": max(1, int(round(n)))}
     d = (f2 - f1) * F32(0.5)  # ~distance to the cell edge (the bisector), cell widths
     mask = smoothstep(gap / 2, gap / 2 + 0.06, d)
-    dome = np.sqrt(np.clip((d - gap / 2) * F32(1 / 0.35), 0, 1)).astype(F32)
+    x = np.clip((d - gap / 2) * F32(1 / 0.35), 0, 1)
+    dome = (x * (2 - x)).astype(F32)  # a parabolic cap: finite slope at the rim (a sqrt rim is a one-pixel cliff)
     return {"mask": mask, "dome": dome * mask, "id": cid, "rnd": rnd, "n": max(1, int(round(n)))}
 
 

@@ -52,10 +52,10 @@ def bricks(p: dict, size: int, rng: np.random.Generator):
     bv = g.standard_normal(n_max).astype(F32)
     pick = g.random(n_max).astype(F32)
     tx, ty = g.standard_normal((2, n_max)).astype(F32)
-    m1, m2 = tex.fbm2(0.12, beta=2.6)  # mottling / chip outline
+    m1, m2 = tex.fbm2(0.12, beta=2.6, detail=0.02)  # mottling / chip outline
     w1, w2 = tex.fbm2(0.3, beta=3.2)  # grime and salt patches
     face = relief_band(tex, 20.0, 0.22 * p["surface"])  # pitted brick face at ~13 px periods at 256²
-    grain = relief_band(tex, 48.0, 0.05 * (0.3 + p["surface"]))  # sand grain, a minority of the slope
+    grain = relief_band(tex, 48.0, 0.035 * (0.3 + p["surface"]))  # sand grain, a minority of the slope
     bid = t["id"]
     nx, ny = t["nx"], t["ny"]
     # chips: the brick outline eaten away where the mottle noise is high, only near edges
@@ -92,9 +92,9 @@ register_preset("bricks/weathered_old", "bricks", {
     "efflorescence": (0.3, 0.0, 0.7), "soot": (0.3, 0.0, 0.7), "tilt": (0.6, 0.3, 1.0), "joint": (0.016, 0.01, 0.024)},
     fixed={"rows": 10, "bricks_x": 3, "surface": 0.7, "brick_var": 0.25})
 register_preset("bricks/painted_white", "bricks", {
-    **rgb("color", (0.85, 0.84, 0.8), (-0.1, 0.08)), "roughness": (0.6, 0.4, 0.8), "chips": (0.3, 0.0, 0.7),
+    **rgb("color", (0.8, 0.79, 0.75), (-0.1, 0.06)), "roughness": (0.6, 0.4, 0.8), "chips": (0.3, 0.0, 0.7),
     "soot": (0.15, 0.0, 0.4), "rows": (12, 8, 16)},
-    fixed={**rgb_fixed("mortar", (0.8, 0.79, 0.76)), **rgb_fixed("color2", (0.8, 0.8, 0.77)), "brick_var": 0.03,
+    fixed={**rgb_fixed("mortar", (0.76, 0.75, 0.72)), **rgb_fixed("color2", (0.76, 0.76, 0.73)), "brick_var": 0.03,
            "mottle": 0.1, "surface": 0.3, "mix": 0.0, "recess": 0.3})
 register_preset("bricks/glazed_blue", "bricks", {
     **rgb("color", (0.2, 0.32, 0.5), (-0.1, 0.12)), "glaze": (0.8, 0.5, 1.0), "brick_var": (0.1, 0.0, 0.25),

@@ -3,7 +3,7 @@ rough-cast plaster / stucco, asphalt road surfaces with paint markings.
 
 Physical ranges (``PHYSICAL``): all dielectrics, F0 about 0.04 (0.02-0.06). Diffuse albedo in the measured charts
 collected on physicallybased.info: new asphalt 0.04-0.05, aged asphalt 0.1-0.18, new concrete 0.4-0.55, aged
-concrete 0.2-0.3, white cement 0.7-0.8 (linear), so 0.015-0.85 per channel with texture. Real references
+concrete 0.2-0.3, white cement 0.7-0.8 (linear), so 0.01-0.85 per channel with texture. Real references
 (docs/REALISM.md): Asphalt026C (median diffuse Y 0.03, roughness 0.46), Road006 (Y 0.07, roughness 0.77),
 Plaster001 (Y 0.65, chroma C* 2, roughness 0.79), plastered_stone_wall (Y 0.05, roughness 0.89, tilt 8 degrees).
 """
@@ -17,7 +17,7 @@ from ..masonry_kit import physical_finish, relief_band, stones
 from ..noise import F32, Tex, band_field, smoothstep
 from ..registry import register_class, register_preset
 
-PHYSICAL = {"diffuse": (0.015, 0.85), "specular": (0.02, 0.06), "roughness": (0.12, 1.0)}
+PHYSICAL = {"diffuse": (0.01, 0.85), "specular": (0.02, 0.06), "roughness": (0.12, 1.0)}
 PAINT = np.array([0.7, 0.68, 0.62], F32)  # linear albedo of white road paint
 
 PARAMS = [
@@ -54,7 +54,7 @@ def concrete(p: dict, size: int, rng: np.random.Generator):
     dabs = relief_band(tex, 12.0, 1.0)  # unit slope: thresholded below, scaled by `stucco`
     grit = relief_band(tex, 24.0, 0.08 * p["grit"])  # ~11 px periods at 256²: sand and grit clumps
     pitf = band_field(size, tex.seed(), 36.0)
-    grain = tex.fbm(0.4, beta=2.6, aniso=8.0, angle=0.0, detail=0.015)  # formwork board grain, along u
+    grain = tex.fbm(0.4, beta=2.6, aniso=4.0, angle=0.0, detail=0.1)  # board grain along u, cut near 40 cycles across
     g = tex.sub()
     boff = g.standard_normal(16).astype(F32)
 
@@ -63,13 +63,13 @@ def concrete(p: dict, size: int, rng: np.random.Generator):
     dab = dabs / max(float(np.abs(dabs).max()), 1e-9)
     dab_h = smoothstep(0.0, 0.35, dab) * 0.004 * p["stucco"]
     pit = smoothstep(1.5, 2.3, -pitf / max(float(pitf.std()), 1e-9)) * p["pits"]
-    crack = np.exp(-(k1 * (10.0 - 4.0 * p["cracks"])) ** 2) * smoothstep(0.0, 0.6, k2 + p["cracks"] - 0.5) * p["cracks"]
+    crack = np.exp(-(k1 * (6.0 - 2.0 * p["cracks"])) ** 2) * smoothstep(0.0, 0.6, k2 + p["cracks"] - 0.5) * p["cracks"]
     nb = int(round(p["boards"]))
     if nb:
         y = tex.v * nb + 0.5
         bi = np.floor(y).astype(np.int32) % nb
         fy = y - np.floor(y)
-        seam = smoothstep(0.1, 0.0, np.minimum(fy, 1 - fy))
+        seam = smoothstep(0.2, 0.0, np.minimum(fy, 1 - fy))
         board_h = 0.0008 * grain + 0.0015 * boff[bi] / nb + 0.001 * seam
     else:
         board_h = np.zeros_like(grain)
@@ -84,7 +84,7 @@ def concrete(p: dict, size: int, rng: np.random.Generator):
         groove = np.zeros_like(grain)
     agg = st["mask"] * (st["rnd"][st["id"]] < p["aggregate"])
     h = (und + flat * (grit + board_h) + dab_h + 0.0015 / max(st["n"], 1) * 8 * st["dome"] * agg * flat
-         - 0.0015 * pit - 0.002 * crack - 0.003 * groove)
+         - 0.0008 * pit - 0.0008 * crack - 0.003 * groove)
 
     col = tint(c1, m1 + 0.4 * k2, p["color_var"])
     col = lerp(col, tint(c2, (st["rnd"][st["id"]] - 0.5) * 2, 0.35), agg)
@@ -124,24 +124,24 @@ register_preset("concrete/cracked_slab", "concrete", {
     **rgb("color", (0.5, 0.49, 0.46), (-0.12, 0.1)), "cracks": (0.8, 0.5, 1.0), "panels": (2, 1, 3),
     "undulation": (0.6, 0.3, 1.0)}, fixed={"grit": 0.45, "roughness": 0.88, "color_var": 0.25})
 register_preset("concrete/plaster_smooth", "concrete", {
-    **rgb("color", (0.86, 0.85, 0.82), (-0.1, 0.08)), "undulation": (0.4, 0.1, 0.8), "cracks": (0.1, 0.0, 0.4),
-    "color_var": (0.06, 0.0, 0.15)}, fixed={"grit": 0.1, "pits": 0.05, "roughness": 0.8})
+    **rgb("color", (0.82, 0.81, 0.78), (-0.1, 0.06)), "undulation": (0.4, 0.1, 0.8), "cracks": (0.1, 0.0, 0.4),
+    "color_var": (0.05, 0.0, 0.1)}, fixed={"grit": 0.1, "pits": 0.05, "roughness": 0.8})
 register_preset("concrete/venetian_plaster", "concrete", {
-    **rgb("color", (0.75, 0.65, 0.52), (-0.15, 0.1)), "trowel": (0.8, 0.5, 1.0), "color_var": (0.3, 0.15, 0.5),
+    **rgb("color", (0.72, 0.62, 0.5), (-0.15, 0.06)), "trowel": (0.8, 0.5, 1.0), "color_var": (0.2, 0.1, 0.3),
     "roughness": (0.45, 0.3, 0.65)}, fixed={"grit": 0.05, "pits": 0.0, "undulation": 0.3, "polish": 0.4})
 register_preset("concrete/stucco_knockdown", "concrete", {
-    **rgb("color", (0.8, 0.76, 0.68), (-0.12, 0.1)), "stucco": (0.8, 0.5, 1.0), "grit": (0.4, 0.2, 0.7),
+    **rgb("color", (0.78, 0.74, 0.66), (-0.12, 0.08)), "stucco": (0.8, 0.5, 1.0), "grit": (0.4, 0.2, 0.7),
     "stains": (0.1, 0.0, 0.4)}, fixed={"roughness": 0.92, "pits": 0.0, "color_var": 0.08})
 register_preset("concrete/rough_cast_dash", "concrete", {
     **rgb("color", (0.7, 0.68, 0.64), (-0.12, 0.1)), **rgb("color2", (0.55, 0.5, 0.45), (-0.15, 0.1)),
     "grit": (0.9, 0.6, 1.0), "aggregate": (0.5, 0.3, 0.8)},
     fixed={"agg_count": 56, "roughness": 0.95, "pits": 0.0, "undulation": 0.5})
 register_preset("concrete/asphalt_road", "concrete", {
-    **rgb("color", (0.16, 0.16, 0.16), (-0.06, 0.1)), **rgb("color2", (0.38, 0.37, 0.35), (-0.12, 0.12)),
-    "aggregate": (0.55, 0.3, 0.8), "agg_count": (48, 36, 64), "roughness": (0.8, 0.6, 0.95)},
+    **rgb("color", (0.19, 0.19, 0.19), (-0.05, 0.1)), **rgb("color2", (0.38, 0.37, 0.35), (-0.12, 0.12)),
+    "aggregate": (0.55, 0.3, 0.8), "agg_count": (40, 30, 52), "roughness": (0.8, 0.6, 0.95)},
     fixed={"grit": 0.6, "pits": 0.3, "color_var": 0.1, "undulation": 0.2})
 register_preset("concrete/asphalt_cracked_marked", "concrete", {
     **rgb("color", (0.2, 0.2, 0.2), (-0.08, 0.1)), "cracks": (0.6, 0.3, 1.0), "marking": (0.6, 0.3, 1.0),
     "stains": (0.3, 0.0, 0.6)},
-    fixed={**rgb_fixed("color2", (0.36, 0.35, 0.33)), "aggregate": 0.45, "agg_count": 56, "grit": 0.5,
+    fixed={**rgb_fixed("color2", (0.36, 0.35, 0.33)), "aggregate": 0.45, "agg_count": 44, "grit": 0.5,
            "roughness": 0.85, "color_var": 0.15})

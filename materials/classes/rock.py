@@ -55,19 +55,19 @@ def rock(p: dict, size: int, rng: np.random.Generator):
     m1, m2 = tex.fbm2(0.15, beta=2.6)  # colour variation, lichen / wet patches
     sp = band_field(size, tex.seed(), 48.0)  # mineral grains: colour only
     vs = band_field(size, tex.seed(), 20.0)  # vesicle holes
-    warpf = tex.fbm(0.3, beta=3.2)
+    warpf = tex.fbm(0.3, beta=3.2, detail=0.05)  # smooth: its gradient bends the strata and folds
     surf = relief_band(tex, 14.0, 0.12 * (0.3 + p["crags"]))  # mid-scale roughness of every rock surface
     fine = relief_band(tex, 52.0, 0.03)  # fine grain, kept a minority of the slope
 
-    ridged = (1 - np.abs(cr1)) ** 2  # sharp crests where the field crosses zero
+    ridged = (1 - np.sqrt(cr1 * cr1 + 0.04)) ** 2  # crests where the field crosses zero, rounded (no kink)
     face = 0.03 * p["crag_scale"] * p["crags"] * ridged
     nl = int(round(p["strata_count"]))
     ph = tex.v * nl + 0.6 * p["strata"] * warpf + 0.5
     fr = ph - np.floor(ph)
     ledge = smoothstep(0.0, 0.15, fr) * (1 - fr)  # a step up, then a slope back down: ledges
     face = face + 0.012 / nl * p["strata"] * ledge
-    crack = np.exp(-(cr2 * 9.0) ** 2) * smoothstep(-0.2, 0.6, m2 + p["cracks"] - 0.5) * p["cracks"]
-    ves = smoothstep(1.2, 2.0, vs) * p["vesicles"]
+    crack = np.exp(-(cr2 * 6.0) ** 2) * smoothstep(-0.2, 0.6, m2 + p["cracks"] - 0.5) * p["cracks"]
+    ves = smoothstep(1.0, 2.0, vs) * p["vesicles"]
     rope = np.sin(2 * np.pi * (tex.v * 10 + 0.35 * warpf + 0.08 * cr1)) * p["flow"]  # small phase warp: folds stay ~25 px apart
     if ns > 0:
         sh = 0.07 / ns * (0.3 + p["dome"]) * st["dome"]
@@ -76,7 +76,7 @@ def rock(p: dict, size: int, rng: np.random.Generator):
     else:
         body = np.ones_like(cr1)
         h = face + surf
-    h = h + fine - 0.003 * crack - 0.002 * ves + 0.0015 * rope * body
+    h = h + fine - 0.002 * crack - 0.0015 * ves + 0.0015 * rope * body
 
     per = (st["rnd"][st["id"]] - 0.5) * 2 if ns > 0 else np.zeros_like(cr1)
     mix = np.clip(0.5 + 0.5 * m1 + 0.6 * per * (ns > 0), 0, 1)
@@ -116,11 +116,11 @@ register_preset("rock/lava_vesicular", "rock", {
     fixed={**rgb_fixed("color2", (0.25, 0.13, 0.09)), "color_var": 0.3, "crag_scale": 0.15})
 register_preset("rock/lava_pahoehoe", "rock", {
     **rgb("color", (0.12, 0.11, 0.11), (-0.05, 0.08)), "flow": (0.8, 0.5, 1.0), "roughness": (0.42, 0.3, 0.6),
-    "vesicles": (0.2, 0.0, 0.4)},
+    "vesicles": (0.25, 0.0, 0.6)},
     fixed={**rgb_fixed("color2", (0.18, 0.12, 0.1)), "crags": 0.2, "color_var": 0.2})
 register_preset("rock/gravel_fine", "rock", {
     **rgb("color", (0.5, 0.47, 0.43), (-0.15, 0.12)), **rgb("color2", (0.35, 0.3, 0.27), (-0.1, 0.1)),
-    "stones": (24, 18, 32), "color_var": (0.35, 0.2, 0.5), "stone_gap": (0.08, 0.02, 0.15)},
+    "stones": (18, 14, 24), "color_var": (0.35, 0.2, 0.5), "stone_gap": (0.08, 0.02, 0.15)},
     fixed={"dome": 0.8, "crags": 0.2, "roughness": 0.85})
 register_preset("rock/gravel_coarse", "rock", {
     **rgb("color", (0.45, 0.43, 0.4), (-0.15, 0.12)), **rgb("color2", (0.3, 0.27, 0.25), (-0.1, 0.1)),

@@ -55,9 +55,11 @@ def roofing(p: dict, size: int, rng: np.random.Generator):
     tv = g.standard_normal(n_max).astype(F32)
     pick = g.random(n_max).astype(F32)
     sx = g.standard_normal(n_max).astype(F32)
-    e1, e2 = tex.fbm2(0.08, beta=2.4)  # ragged outlines / colour mottle
+    e1, e2 = tex.fbm2(0.08, beta=2.4, detail=0.015)  # ragged outlines / colour mottle
     w1, w2 = tex.fbm2(0.25, beta=3.0)  # moss and weathering patches
-    streak = tex.fbm(0.3, beta=2.0, aniso=8.0, angle=np.pi / 2)  # cleavage / shake grain, runs down the slope
+    # cleavage / shake grain, runs down the slope; `detail` is measured in the stretched frame, so 0.1 cuts the
+    # grooves across the slope near 40 cycles per texture
+    streak = tex.fbm(0.3, beta=2.6, aniso=4.0, angle=np.pi / 2, detail=0.1)
     face = relief_band(tex, 16.0, 0.15 * p["surface"])
     fine = relief_band(tex, 56.0, 0.025 * (0.2 + p["surface"]))
 
@@ -82,7 +84,7 @@ def roofing(p: dict, size: int, rng: np.random.Generator):
     edge_x = np.minimum(fxv, 1 - fxv) / nx
     key = smoothstep(0.012, 0.0, edge_x - kw / 2) * (kw > 0)
     prof = (0.5 - 0.5 * np.cos(2 * np.pi * fxv)) if p["profile"] > 0 else np.zeros_like(fxv)
-    h = (0.006 * p["thickness"] * wedge + 0.12 / nx * p["profile"] * prof - 0.003 * key
+    h = (0.006 * p["thickness"] * wedge + 0.12 / nx * p["profile"] * prof - 0.0015 * key
          + 0.004 / ny * sx[tid] * fxv + face + fine + 0.0012 * p["grain"] * streak)
 
     sel = (pick[tid] < p["mix"]).astype(F32)
