@@ -12,7 +12,7 @@ from materials.maps import MAP_NAMES
 from test_materials_noise import seam_stats
 
 ALL = [p.name for p in presets()]
-CLASSES = ("paint", "plastic", "leather", "metal", "wood", "fabric", "stone", "ceramic_tiles", "ground")
+CLASSES = ("paint", "plastic", "leather", "metal", "wood", "fabric", "stone", "ceramic_tiles", "ground", "paper", "cork", "rubber", "bark", "knit", "metal_sheet")
 #: a parameter is "effective" when low vs high changes some map by at least this mean |difference|
 EFFECT_MIN = 2e-3
 #: held-out accuracy bar of the nearest-centroid class classifier on per-map mean/std features
