@@ -124,8 +124,8 @@ def knit(p: dict, size: int, rng: np.random.Generator):
 register_preset("knit/chunky_wool_cream", "knit", {
     **rgb("color", (0.85, 0.8, 0.7), (-0.12, 0.06)), "stitches": (8, 6, 11), "depth": (0.3, 0.2, 0.42),
     "fuzz": (0.025, 0.01, 0.04), "color_var": (0.06, 0.0, 0.15)}, fixed={"pattern": 0})
-register_preset("knit/jersey_fine_grey", "knit", {
-    **rgb("color", (0.5, 0.5, 0.52), (-0.15, 0.15)), "stitches": (16, 12, 22), "depth": (0.15, 0.08, 0.25),
+register_preset("knit/jersey_grey", "knit", {
+    **rgb("color", (0.5, 0.5, 0.52), (-0.15, 0.15)), "stitches": (11, 9, 13), "depth": (0.15, 0.08, 0.25),
     "shadow": (0.3, 0.15, 0.45)}, fixed={"pattern": 0, "fuzz": 0.015})
 register_preset("knit/rib_sweater_navy", "knit", {
     **rgb("color", (0.16, 0.2, 0.36), (-0.06, 0.1)), "stitches": (14, 10, 20), "depth": (0.25, 0.15, 0.38),
