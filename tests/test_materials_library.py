@@ -146,7 +146,10 @@ def test_physical_plausibility_per_class():
     for p in presets():
         m = p.generate(None, 64, 0)
         s = m.specular.mean(-1)
-        if p.cls == "metal":
+        if p.cls == "metal_sheet":  # bare, galvanised, painted or rusted: wherever bare metal shows, diffuse ~ black
+            bare = s > 0.3
+            assert not bare.any() or float(m.diffuse[bare].mean()) < 0.1, p.name
+        elif p.cls == "metal":
             bare = s > 0.3  # bare metal (not rust/patina): high coloured F0, near-black diffuse
             assert bare.mean() > 0.3 and float(m.diffuse[bare].mean()) < 0.1, p.name
         else:
