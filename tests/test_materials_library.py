@@ -12,7 +12,8 @@ from materials.maps import MAP_NAMES
 from test_materials_noise import seam_stats
 
 ALL = [p.name for p in presets()]
-CLASSES = ("paint", "plastic", "leather", "metal", "wood", "fabric", "stone", "ceramic_tiles", "ground", "bricks", "roofing", "concrete", "rock")
+CLASSES = ("paint", "plastic", "leather", "metal", "wood", "fabric", "stone", "ceramic_tiles", "ground",
+           "bricks", "roofing", "concrete", "rock", "paper", "cork", "rubber", "bark", "knit", "metal_sheet")
 #: a parameter is "effective" when low vs high changes some map by at least this mean |difference|
 EFFECT_MIN = 2e-3
 #: held-out accuracy bar of the nearest-centroid class classifier on per-map mean/std features
@@ -146,7 +147,10 @@ def test_physical_plausibility_per_class():
     for p in presets():
         m = p.generate(None, 64, 0)
         s = m.specular.mean(-1)
-        if p.cls == "metal":
+        if p.cls == "metal_sheet":  # bare, galvanised, painted or rusted: wherever bare metal shows, diffuse ~ black
+            bare = s > 0.3
+            assert not bare.any() or float(m.diffuse[bare].mean()) < 0.1, p.name
+        elif p.cls == "metal":
             bare = s > 0.3  # bare metal (not rust/patina): high coloured F0, near-black diffuse
             assert bare.mean() > 0.3 and float(m.diffuse[bare].mean()) < 0.1, p.name
         else:
