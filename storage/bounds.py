@@ -32,8 +32,9 @@ TASK_FACTOR = 3
 WORKER_BYTES = 200 << 20
 #: the compression a store is expected to reach: renders stores, the largest by far, measure 1.93x
 #: (benchmarks/results/render.json: 169,607 bytes per 256² view of 327,739 raw); real variants and blends stores
-#: ~2-4x, so for them the estimate errs on the large side. Not the best conceivable ratio (uniform maps compress
-#: 64x and more): a bound that loose let a paper-scale render start on a disk holding a tenth of its output.
+#: compress no better (benchmarks/bench_paper_scale.py records each store's bytes). Not the best conceivable ratio
+#: (uniform maps compress 64x and more): a bound that loose let a paper-scale render start on a disk holding a
+#: tenth of its output.
 EXPECTED_COMPRESSION = 2
 
 GiB = float(1 << 30)
