@@ -5,7 +5,10 @@ Scripts run as ``python3 benchmarks/<script>.py`` from anywhere. They import the
 tests do, and no script edits ``sys.path``: Python puts ``benchmarks/`` first on the path of the script it runs,
 which is how ``import harness`` and imports between benchmark scripts resolve. Which code was measured is
 recorded in every results file (:func:`machine_info`: the package's folder and git commit), so a result
-measured on another checkout than the one it is written into shows it.
+measured on another checkout than the one it is written into shows it, with a digest of that code
+(``code_digest``, :mod:`freshness`): ``python3 benchmarks/stale.py`` lists the results whose code changed since.
+Writing over an existing results file prints each figure's change against its previous value and flags a
+regression above 20 % (:func:`freshness.compare`).
 
 Nothing here imports torch, drjit or mitsuba: drjit must be imported after ``pipeline.mi_env`` has found libLLVM,
 and library versions come from the installed distributions' metadata instead.
@@ -29,6 +32,8 @@ import time
 from importlib import metadata
 from pathlib import Path
 from typing import Any, Callable, Iterable, NamedTuple
+
+import freshness
 
 #: repository root (the folder holding benchmarks/).
 ROOT = Path(__file__).resolve().parents[1]
@@ -162,8 +167,33 @@ def repo_relative(obj: Any, root: Path = ROOT) -> Any:
     return obj
 
 
-def write_results(path: str | os.PathLike, result: dict, note: str | None = None) -> Path:
-    """Write a results JSON: ``result`` plus ``command``, ``machine`` (:func:`machine_info`) and ``note``.
+def _with_history(entry: dict, previous: dict | None, code: Iterable[str], label: str) -> dict:
+    """``entry`` with its ``code_digest`` (:func:`freshness.measured_code`) and, when the same results were
+    measured before, its ``changes`` against them; the changes are printed (stderr), regressions flagged."""
+    entry.setdefault("code_digest", freshness.measured_code(ROOT, code=code))
+    if previous:
+        changes = freshness.compare(previous, entry)
+        entry["changes"] = freshness.changes_record(changes)
+        for c in changes:
+            print(f"{label}: {c.line()}", file=sys.stderr)
+        if entry["changes"]["regressions"]:
+            print(f"{label}: {len(entry['changes']['regressions'])} figure(s) regressed by more than "
+                  f"{freshness.REGRESSION:.0%}: {', '.join(entry['changes']['regressions'])}", file=sys.stderr)
+    return entry
+
+
+def _previous(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text()) if path.exists() else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def write_results(path: str | os.PathLike, result: dict, note: str | None = None, code: Iterable[str] = ()) -> Path:
+    """Write a results JSON: ``result`` plus ``command``, ``machine`` (:func:`machine_info`), ``note``,
+    ``code_digest`` (the code measured: the script, the benchmark modules and project packages it imported, and
+    ``code``: packages a subprocess ran, e.g. ``("pipeline", "storage")``) and, when ``path`` held results
+    before, ``changes`` (every figure against its previous value; regressions above 20 % flagged and printed).
 
     Keys the result already has win (a script may record its own command). Parent folders are created. Absolute
     paths (a store, an output folder, the measured checkout) are written relative to the repository
@@ -172,28 +202,31 @@ def write_results(path: str | os.PathLike, result: dict, note: str | None = None
     Returns:
         The path written.
     """
+    path = Path(path)
     out = {**result}
     out.setdefault("command", command())
     out.setdefault("machine", machine_info())
     if note is not None:
         out["note"] = note
-    path = Path(path)
+    out = _with_history(out, _previous(path), code, _relative(str(path.resolve())))
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(repo_relative(out), indent=1) + "\n")
     return path
 
 
-def update_results(path: str | os.PathLike, key: str, result: dict, note: str | None = None) -> Path:
+def update_results(path: str | os.PathLike, key: str, result: dict, note: str | None = None,
+                   code: Iterable[str] = ()) -> Path:
     """Set ``key`` of a results JSON that several scripts share (read-modify-write: other keys are kept).
 
     ``result`` gets ``command``, ``machine`` (with the measured checkout's path relative to the repository, so
-    the file holds no absolute path) and ``note`` like :func:`write_results`; keys it already has win.
+    the file holds no absolute path), ``note``, ``code_digest`` and ``changes`` (against the previous value of
+    ``key``) like :func:`write_results`; keys it already has win.
 
     Returns:
         The path written.
     """
     path = Path(path)
-    data = json.loads(path.read_text()) if path.exists() else {}
+    data = _previous(path)
     entry = {**result}
     entry.setdefault("command", command())
     if "machine" not in entry:
@@ -203,7 +236,8 @@ def update_results(path: str | os.PathLike, key: str, result: dict, note: str | 
             entry["machine"]["code"]["path"] = os.path.relpath(where, ROOT)
     if note is not None:
         entry["note"] = note
-    data[key] = entry
+    previous = data.get(key) if isinstance(data.get(key), dict) else None
+    data[key] = _with_history(entry, previous, code, f"{_relative(str(path.resolve()))} {key}")
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data, indent=1) + "\n")
     return path

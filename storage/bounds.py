@@ -8,7 +8,10 @@ deliberately generous to the user: they refuse only what certainly cannot fit.
   arrays, stacks them into one buffer and zarr holds the compressed copy; zarr allocates a whole chunk even for
   the short last one) must fit in the available memory;
 * local workers: ``workers x (WORKER_BYTES + task bytes)`` must fit in the available memory;
-* disk: the store's raw size divided by MAX_COMPRESSION must fit in the free space of the output's file system.
+* disk: the store's expected size, its raw size divided by EXPECTED_COMPRESSION, less what a resumed ``.partial``
+  store already holds, must fit in the free space of the output's file system. A paper-scale run (~218,000 views,
+  tens of GB) on a disk too small is refused before anything is written, with the estimate and the free space,
+  instead of failing hours later with the disk full and a partial store left behind.
 
 (Seeds, integers in [0, 2^64), are a field rule of the configs: ``Field(ge=0, lt=2 ** 64)``.)
 """
@@ -20,14 +23,19 @@ from pathlib import Path
 
 from svcore.errors import ConfigError
 
+from .objstore import local_path
+
 #: peak bytes per chunk task relative to the chunk's raw bytes (arrays assembled, stacked, compressed copy).
 TASK_FACTOR = 3
 #: resident memory of one dask worker process with numpy, zarr, dask and mitsuba loaded (measured: 150 MiB for
 #: the imports and a 64^2 scene, plus the worker's own bookkeeping).
 WORKER_BYTES = 200 << 20
-#: the best zstd ratio a store could reach (uniform maps compress far better than real ones; real variants stores
-#: compress ~2-4x): a store needs at least raw / MAX_COMPRESSION bytes of disk.
-MAX_COMPRESSION = 64
+#: the compression a store is expected to reach: renders stores, the largest by far, measure 1.93x
+#: (benchmarks/results/render.json: 169,607 bytes per 256² view of 327,739 raw); real variants and blends stores
+#: compress no better (benchmarks/bench_paper_scale.py records each store's bytes). Not the best conceivable ratio
+#: (uniform maps compress 64x and more): a bound that loose let a paper-scale render start on a disk holding a
+#: tenth of its output.
+EXPECTED_COMPRESSION = 2
 
 GiB = float(1 << 30)
 
@@ -43,12 +51,18 @@ def free_disk(path: str | os.PathLike) -> int:
     """Free bytes of the file system that will hold ``path`` (its nearest existing ancestor)."""
     import shutil
 
-    from .objstore import local_path
-
     p = Path(local_path(path)).resolve()
     while not p.exists() and p != p.parent:
         p = p.parent
     return int(shutil.disk_usage(p).free)
+
+
+def _partial_bytes(out) -> int:
+    """Bytes already on disk in the ``.partial`` store of ``out`` (a resume needs only the rest)."""
+    from .local import partial_path
+
+    part = partial_path(out)
+    return sum(f.stat().st_size for f in part.rglob("*") if f.is_file()) if part.is_dir() else 0
 
 
 def sample_bytes(arrays) -> int:
@@ -79,11 +93,12 @@ def check_store_size(out, n: int, chunk: int, arrays) -> int:
 
     if is_object_url(out):  # a bucket has no free-space figure to check against
         return task
-    need, free = n * per / MAX_COMPRESSION, free_disk(out)
+    need, free = n * per / EXPECTED_COMPRESSION - _partial_bytes(out), free_disk(out)
     if need > free:
-        raise ConfigError(f"{n} samples need at least {need / GiB:.3g} GiB of disk ({per / 2**20:.2f} MiB raw per "
-                          f"sample, compressed at most {MAX_COMPRESSION}x), more than the {free / GiB:.1f} GiB free "
-                          f"under {Path(out).resolve().parent}; make fewer samples")
+        raise ConfigError(f"{n} samples need about {need / GiB:.3g} GiB of disk ({per / 2**20:.2f} MiB raw per "
+                          f"sample, compressed about {EXPECTED_COMPRESSION}x as real stores measure), more than "
+                          f"the {free / GiB:.1f} GiB free under {Path(local_path(out)).resolve().parent}; make fewer "
+                          "samples or free some space")
     return task
 
 

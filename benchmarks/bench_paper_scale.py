@@ -1,0 +1,164 @@
+"""Paper scale end to end: sample + blend + render with the paper presets at a fraction of the scale, projected.
+
+Runs ``svgen sample|blend|render --config-preset paper`` (1,836 variants: 51 base materials x 36; 20,000 blends;
+10 views of each at 288², about 218,000 views) with the counts multiplied by ``--scale`` (default 0.25; at least
+one variant per base material and one blend), each stage as its own process, as a user runs them. Per stage it
+records the wall time, the CPU seconds of the stage's process tree (its dask worker processes included: the
+kernel counts every process the stage reaped), the peak resident memory of the whole process tree (sampled every
+0.2 s), the store's bytes on disk and its objects (files). The full scale is projected linearly from the measured counts (every stage's work is per sample;
+the one-time start of a stage's processes is counted in, so the projection errs on the high side).
+
+Writes benchmarks/results/paper_scale.json. Usage:
+    python3 benchmarks/bench_paper_scale.py [--scale 0.25] [--workers 2] [--workdir DIR] [--keep]
+The stores are written under --workdir (default: a temporary folder, deleted afterwards unless --keep); at
+--scale 0.25 they take about a quarter of the full scale's disk (see the projection of a smaller run first).
+"""
+from __future__ import annotations
+
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+from harness import RESULTS, ROOT, parser, write_results
+
+#: the paper's counts (pipeline/config.py's "paper" presets: sample per_preset 36 at 288², blend 20000, render
+#: 10 views at 288²); the base materials are counted from the registry at run time.
+PAPER_PER_PRESET, PAPER_BLENDS, PAPER_VIEWS = 36, 20000, 10
+#: how often the process tree's resident memory is sampled (seconds).
+POLL_S = 0.2
+
+
+def _tree_rss(pid: int) -> int:
+    """Resident bytes of a process and all its descendants (0 once it is gone)."""
+    import psutil
+
+    try:
+        p = psutil.Process(pid)
+        procs = [p, *p.children(recursive=True)]
+    except psutil.Error:
+        return 0
+    total = 0
+    for q in procs:
+        try:
+            total += q.memory_info().rss
+        except psutil.Error:
+            pass
+    return total
+
+
+def run_stage(args: list[str], env: dict) -> dict:
+    """Run one ``svgen`` command as its own process: wall, CPU of its process tree, peak RSS.
+
+    Returns:
+        wall_s, cpu_s (user + system of the process and of the processes it reaped: its dask workers),
+        peak_rss_bytes (the sum over the process tree, sampled every :data:`POLL_S`).
+    """
+    cmd = [sys.executable, "-c", "from pipeline.cli import main; main()", *args]
+    # this script starts no other process, so the change of its children's usage is the stage's own
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    peak, stop = [0], threading.Event()
+
+    def poll():
+        while not stop.is_set():
+            peak[0] = max(peak[0], _tree_rss(proc.pid))
+            stop.wait(POLL_S)
+
+    t = threading.Thread(target=poll, daemon=True)
+    t.start()
+    _, err = proc.communicate()
+    wall = time.perf_counter() - t0
+    stop.set()
+    t.join()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if proc.returncode != 0:
+        raise SystemExit(f"svgen {args[0]} failed (exit {proc.returncode}): {err.strip()[-2000:]}")
+    return {"wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "peak_rss_bytes": peak[0]}
+
+
+def store_size(path: Path) -> tuple[int, int]:
+    """(bytes, objects) of a store folder: the sum of its files' sizes and their count."""
+    files = [f for f in path.rglob("*") if f.is_file()]
+    return sum(f.stat().st_size for f in files), len(files)
+
+
+def main(argv=None) -> dict:
+    ap = parser(__doc__)
+    ap.add_argument("--scale", type=float, default=0.25, help="fraction of the paper's counts (default 0.25)")
+    ap.add_argument("--workers", type=int, default=2, help="svgen --workers of every stage (default 2)")
+    ap.add_argument("--workdir", default=None, help="where the stores are written (default: a temporary folder)")
+    ap.add_argument("--keep", action="store_true", help="keep the stores")
+    ap.add_argument("--out", default=str(RESULTS / "paper_scale.json"))
+    a = ap.parse_args(argv)
+    if not 0 < a.scale <= 1:
+        raise SystemExit(f"--scale {a.scale}: a fraction in (0, 1]")
+    from materials.registry import presets
+
+    n_presets = len(list(presets()))
+    per_preset = max(1, round(PAPER_PER_PRESET * a.scale))
+    blends = max(1, round(PAPER_BLENDS * a.scale))
+    counts = {"sample": n_presets * per_preset, "blend": blends, "render": (n_presets * per_preset + blends) * PAPER_VIEWS}
+    full = {"sample": n_presets * PAPER_PER_PRESET, "blend": PAPER_BLENDS,
+            "render": (n_presets * PAPER_PER_PRESET + PAPER_BLENDS) * PAPER_VIEWS}
+    units = {"sample": "variants", "blend": "blends", "render": "views"}
+    work = Path(a.workdir) if a.workdir else Path(tempfile.mkdtemp(prefix="paper_scale_"))
+    work.mkdir(parents=True, exist_ok=True)
+    v, b, r = work / "variants.zarr", work / "blends.zarr", work / "renders.zarr"
+    env = {**os.environ, "SVGEN_NO_PROGRESS": "1", "PYTHONPATH": os.environ.get("PYTHONPATH", str(ROOT))}
+    common = ["--config-preset", "paper", "--workers", str(a.workers)]
+    cmds = {"sample": ["sample", str(v), *common, "--per-preset", str(per_preset)],
+            "blend": ["blend", str(v), str(b), *common, "--count", str(blends)],
+            "render": ["render", str(v), str(b), str(r), *common]}
+    stages = {}
+    try:
+        for name, args in cmds.items():
+            m = run_stage(args, env)
+            store = {"sample": v, "blend": b, "render": r}[name]
+            m["disk_bytes"], m["objects"] = store_size(store)
+            m[units[name]] = counts[name]
+            m[f"{units[name]}_per_s"] = round(counts[name] / m["wall_s"], 2)
+            m["command"] = "svgen " + " ".join(str(x) for x in args)
+            stages[name] = m
+            print(f"{name}: {json.dumps(m)}", file=sys.stderr)
+    finally:
+        if not a.keep and not a.workdir:
+            shutil.rmtree(work, ignore_errors=True)
+    views = counts["render"]
+    wall = sum(s["wall_s"] for s in stages.values())
+    cpu = sum(s["cpu_s"] for s in stages.values())
+    disk = sum(s["disk_bytes"] for s in stages.values())
+    proj = {name: {"count": full[name], "wall_s": round(stages[name]["wall_s"] * full[name] / counts[name], 1),
+                   "cpu_s": round(stages[name]["cpu_s"] * full[name] / counts[name], 1),
+                   "disk_bytes": int(stages[name]["disk_bytes"] * full[name] / counts[name]),
+                   "objects": int(stages[name]["objects"] * full[name] / counts[name])} for name in stages}
+    res = {
+        "benchmark": "paper_scale",
+        "scale": a.scale, "workers": a.workers, "cpus": os.cpu_count(), "base_materials": n_presets,
+        "counts": counts, "stages": stages,
+        "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
+        "cpu_s_per_view": round(cpu / views, 5), "render_cpu_s_per_view": round(stages["render"]["cpu_s"] / views, 5),
+        "bytes_per_view": round(stages["render"]["disk_bytes"] / views, 1),
+        "disk_bytes": disk, "objects": sum(s["objects"] for s in stages.values()),
+        "peak_rss_bytes": max(s["peak_rss_bytes"] for s in stages.values()),
+        "projection": {"note": "linear in each stage's count from the measured run", "stages": proj,
+                       "views": full["render"], "wall_s": round(sum(p["wall_s"] for p in proj.values()), 1),
+                       "cpu_s": round(sum(p["cpu_s"] for p in proj.values()), 1),
+                       "disk_bytes": sum(p["disk_bytes"] for p in proj.values())},
+        "aim_wall_s": 1200,
+    }
+    write_results(a.out, res, a.note, code=("svcore", "materials", "storage", "pipeline"))
+    print(json.dumps(res, indent=1))
+    return res
+
+
+if __name__ == "__main__":
+    main()
