@@ -80,7 +80,7 @@ register_preset("stone/white_marble", "stone", {
     "veins": (0.8, 0.4, 1.0), "vein_scale": (0.45, 0.2, 0.9), "turbulence": (0.8, 0.3, 1.5), "polish": (0.85, 0.5, 1.0)},
     fixed={"bump": 0.1})
 register_preset("stone/granite_grey", "stone", {
-    **rgb("color", (0.55, 0.53, 0.52), (-0.15, 0.15)), **rgb("vein", (0.1, 0.1, 0.1), (-0.05, 0.2)),
+    **rgb("color", (0.55, 0.53, 0.52), (-0.15, 0.15)), **rgb("vein", (0.1, 0.1, 0.1), (-0.05, 0.3)),
     "speckle": (0.8, 0.4, 1.0), "speckle_size": (0.008, 0.004, 0.02), "polish": (0.4, 0.0, 0.9),
     "roughness": (0.6, 0.4, 0.8)}, fixed={"bump": 0.2})
 register_preset("stone/cobblestones", "stone", {
@@ -100,5 +100,5 @@ register_preset("stone/flagstones", "stone", {
     "bump_scale": (0.08, 0.03, 0.2), "layers": (0.3, 0.0, 0.7)}, fixed={"cell_round": 0.2})
 # bush-hammered granite: the face dressed with a pointed hammer, pitted at mid scales, matte
 register_preset("stone/bush_hammered", "stone", {
-    **rgb("color", (0.6, 0.58, 0.56), (-0.15, 0.12)), **rgb("vein", (0.15, 0.15, 0.15), (-0.05, 0.15)),
+    **rgb("color", (0.6, 0.58, 0.56), (-0.15, 0.12)), **rgb("vein", (0.15, 0.15, 0.15), (-0.1, 0.35)),
     "bump": (0.9, 0.6, 1.0), "bump_scale": (0.04, 0.025, 0.07), "speckle": (0.6, 0.3, 0.9), "roughness": (0.85, 0.7, 1.0)})
