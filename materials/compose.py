@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .maps import SVBRDF
-from .noise import F32, height_to_normal
+from .noise import F32, height_slopes, height_to_normal
 from .params import Param
 
 
@@ -44,7 +44,16 @@ def tint(color: np.ndarray, field: np.ndarray, amount: float) -> np.ndarray:
     return (c * np.exp(F32(amount) * field)[..., None]).astype(F32)
 
 
-def finish(height: np.ndarray, strength: float, diffuse, specular, roughness) -> SVBRDF:
+def slope_scaled(h: np.ndarray, slope_rms: float) -> np.ndarray:
+    """Height field ``h`` (H, W) rescaled so that its RMS slope (finite differences, as the normals see it) is
+    ``slope_rms``: relief layers are specified by how much they tilt the surface, whatever their feature size."""
+    sx, sy = height_slopes(h)
+    rms = float(np.sqrt(np.mean(sx.astype(np.float64) ** 2 + sy.astype(np.float64) ** 2)))
+    return (h * F32(slope_rms / max(rms, 1e-12))).astype(F32)
+
+
+def finish(height: np.ndarray, strength: float, diffuse, specular, roughness,
+           albedo: tuple[float, float] | None = None) -> SVBRDF:
     """Assemble an :class:`SVBRDF`, broadcasting and clipping every map to [0, 1].
 
     Args:
@@ -52,7 +61,13 @@ def finish(height: np.ndarray, strength: float, diffuse, specular, roughness) ->
         strength: slope multiplier.
         diffuse, specular: (H, W, 3), (3,) or scalars, linear.
         roughness: (H, W) or scalar.
+        albedo: a dielectric class's physical diffuse range (lo, hi): the [0, 1] diffuse is mapped affinely onto
+            it, so that no colour parameter, dirt or crease darkening gives an albedo no real material has
+            (a class's ``PHYSICAL["diffuse"]``).
     """
+    if albedo is not None:
+        lo, hi = albedo
+        diffuse = F32(lo) + F32(hi - lo) * np.clip(np.asarray(diffuse, F32), 0, 1)
     n = height.shape[0]
     shp3 = (n, n, 3)
 

@@ -1,4 +1,9 @@
-"""Ceramic tiles: glazed tiles (or bricks) in a grid with grout, bevels, uneven tilt, crazing, dirt."""
+"""Ceramic tiles: glazed tiles (or bricks) in a grid with grout, bevels, uneven tilt, crazing, dirt.
+
+Physical ranges (``PHYSICAL``): glazes are glasses (n ~1.5-1.6, F0 0.04-0.05), grout and unglazed body ~0.03;
+albedo from black glaze ~0.02 to white glaze ~0.85 (linear; physicallybased.info's measured albedos, the tile
+scans of materials-cc0).
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -8,6 +13,8 @@ from ..compose import P, finish, lerp, rgb, rgb_fixed, rgb_params, tint
 from ..noise import F32, Tex
 from ..patterns import tiles, worley
 from ..registry import register_class, register_preset
+
+PHYSICAL = {"diffuse": (0.02, 0.85), "specular": (0.025, 0.06), "roughness": (0.02, 1.0)}
 
 PARAMS = [
     *rgb_params("color", (0.9, 0.9, 0.88), "tile glaze colour"),
@@ -56,7 +63,7 @@ def ceramic_tiles(p: dict, size: int, rng: np.random.Generator):
     r = lerp(np.full(1, p["grout_rough"], F32) * np.ones_like(tile_h)[..., None],
              (p["glaze_rough"] + 0.3 * crack)[..., None], tile_h)[..., 0]
     spec = 0.03 + 0.02 * tile_h
-    return finish(h, 1.0, diff, spec[..., None], np.clip(r, 0.02, 1))
+    return finish(h, 1.0, diff, spec[..., None], np.clip(r, 0.02, 1), albedo=PHYSICAL["diffuse"])
 
 
 register_preset("ceramic_tiles/white_bathroom", "ceramic_tiles", {
@@ -84,3 +91,8 @@ register_preset("ceramic_tiles/red_brick", "ceramic_tiles", {
     **rgb("color", (0.55, 0.22, 0.14), (-0.15, 0.12)), **rgb("grout", (0.7, 0.68, 0.62), (-0.2, 0.1)),
     "tiles_y": (10, 6, 14), "gap": (0.015, 0.008, 0.03), "tile_var": (0.2, 0.05, 0.4), "surface": (0.8, 0.4, 1.0),
     "glaze_rough": (0.75, 0.6, 0.8)}, fixed={"tiles_x": 4, "stagger": 0.5, "tilt": 0.6, "bevel": 0.006})
+# zellige: hand-made glazed tiles, wavy and tilted each its own way, glossy, strong colour variation
+register_preset("ceramic_tiles/zellige_green", "ceramic_tiles", {
+    **rgb("color", (0.2, 0.42, 0.36), (-0.1, 0.12)),
+    "tiles_x": (8, 6, 12), "tile_var": (0.3, 0.15, 0.4), "tilt": (0.9, 0.6, 1.0), "surface": (0.9, 0.6, 1.0),
+    "glaze_rough": (0.08, 0.03, 0.2), "gap": (0.006, 0.004, 0.01)}, fixed={"tiles_y": 8, "bevel": 0.006})

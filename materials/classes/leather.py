@@ -1,13 +1,20 @@
-"""Leather: pebbled cellular grain, wrinkles, pores, worn lighter peaks, medium roughness."""
+"""Leather: pebbled cellular grain, wrinkles, pores, worn lighter peaks, medium roughness.
+
+Physical ranges (``PHYSICAL``): dyed leathers' albedo runs from black ~0.02-0.03 to natural veg-tan ~0.5 (linear;
+physicallybased.info's measured albedos, and the leather scans of materials-cc0); the finished grain is a
+dielectric of F0 ~0.035-0.06 (protein and its wax/lacquer finish, n ~1.5), one F0 over the hide.
+"""
 from __future__ import annotations
 
 import numpy as np
 
 from ..color import color_param
-from ..compose import P, finish, lerp, rgb, rgb_params, tint
+from ..compose import P, finish, lerp, rgb, rgb_params, slope_scaled, tint
 from ..noise import Tex
 from ..patterns import worley
 from ..registry import register_class, register_preset
+
+PHYSICAL = {"diffuse": (0.02, 0.7), "specular": (0.03, 0.06), "roughness": (0.05, 1.0)}
 
 PARAMS = [
     *rgb_params("color", (0.35, 0.18, 0.08), "leather colour"),
@@ -21,7 +28,7 @@ PARAMS = [
     P("roughness", 0.55, 0.2, 0.9, "mean roughness"),
     P("rough_var", 0.15, 0.0, 0.4, "roughness difference crease vs top"),
     P("wear", 0.2, 0.0, 1.0, "lighter, smoother worn peaks"),
-    P("specular", 0.04, 0.02, 0.10, "F0 (mean; lower in creases, higher on worn tops)"),
+    P("specular", 0.045, 0.035, 0.06, "F0 of the finished grain (uniform)"),
     P("crease_dark", 0.4, 0.0, 0.9, "darkening inside creases"),
 ]
 
@@ -37,16 +44,16 @@ def leather(p: dict, size: int, rng: np.random.Generator):
     crease = np.clip(1 - (f2 - f1) * 3.0, 0, 1) ** 2  # 1 on cell borders
     dome = np.sqrt(np.clip(1 - f1 * 1.1, 0, 1))
     cw = 1.0 / max(p["cells"], 1)  # cell width: creases scale with the cells
-    h = cw * 0.08 * p["cell_depth"] * (dome - crease) + 0.004 * p["wrinkles"] * wr
+    # folds carry mid-scale relief (a few to ~30 cycles per map); pores are a shallow fine detail
+    h = cw * 0.08 * p["cell_depth"] * (dome - crease) + slope_scaled(wr, 0.06 * p["wrinkles"] + 1e-6)
     porem = np.clip(pore - 1.0, 0, None)
-    h = h - 0.0008 * p["pores"] * porem
+    h = h - 0.0003 * p["pores"] * porem
     top = np.clip(wr * 0.5 + dome - 0.6, 0, 1) * p["wear"]
     col = tint(base, blot, p["color_var"]) * (1 - p["crease_dark"] * crease)[..., None]
     col = lerp(col, np.minimum(1, base * 1.8 + 0.03), top * 0.6)
     col = col * (1 - 0.3 * p["pores"] * porem)[..., None]  # pores trap dirt and shadow
     r = p["roughness"] + p["rough_var"] * (crease - 0.3) - 0.25 * top + 0.1 * p["pores"] * porem
-    spec = p["specular"] * np.clip(1 + 0.3 * blot, 0.4, 1.8) * (1 - 0.4 * crease) * (1 + 0.6 * top)
-    return finish(h, 1.0, col, spec[..., None], np.clip(r, 0.05, 1))
+    return finish(h, 1.0, col, p["specular"], np.clip(r, 0.05, 1), albedo=PHYSICAL["diffuse"])
 
 
 register_preset("leather/brown_pebbled", "leather", {
@@ -66,9 +73,14 @@ register_preset("leather/croc_green", "leather", {
     **rgb("color", (0.15, 0.25, 0.12), (-0.1, 0.15)),
     "cells": (14, 8, 24), "cell_depth": (0.7, 0.4, 1.0), "cell_jitter": (0.5, 0.2, 0.8),
     "crease_dark": (0.6, 0.3, 0.9), "roughness": (0.4, 0.25, 0.6), "rough_var": (0.2, 0.0, 0.4),
-    "specular": (0.05, 0.03, 0.09)})
+    "specular": (0.05, 0.04, 0.06)})
 register_preset("leather/suede_red", "leather", {
     **rgb("color", (0.45, 0.08, 0.06), (-0.15, 0.15)),
     "roughness": (0.85, 0.7, 0.9), "pores": (0.6, 0.2, 1.0), "wrinkles": (0.5, 0.2, 0.9),
     "color_var": (0.2, 0.05, 0.5), "wrinkle_scale": (0.4, 0.15, 0.8)},
-    fixed={"cell_depth": 0.08, "cells": 100, "specular": 0.025, "wear": 0.0})
+    fixed={"cell_depth": 0.08, "cells": 100, "specular": 0.038, "wear": 0.0})
+# saddle leather: coarse, deep pebble grain under broad folds, natural tan
+register_preset("leather/saddle_coarse", "leather", {
+    **rgb("color", (0.62, 0.4, 0.22), (-0.15, 0.12)),
+    "cells": (18, 10, 28), "cell_depth": (0.8, 0.5, 1.0), "wrinkles": (0.6, 0.3, 1.0), "wrinkle_scale": (0.2, 0.1, 0.4),
+    "roughness": (0.5, 0.35, 0.7), "crease_dark": (0.5, 0.2, 0.8)})

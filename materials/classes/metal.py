@@ -1,4 +1,10 @@
-"""Metal: coloured high specular, near-black diffuse; brushing, scratches, hammer dents, oxide."""
+"""Metal: coloured high specular, near-black diffuse; brushing, scratches, hammer dents, oxide.
+
+Physical ranges (``PHYSICAL``): bare metals' F0 (physicallybased.info: iron 0.53-0.56, aluminium 0.91, copper
+0.95/0.64/0.54, gold 1.0/0.78/0.34) with a near-black diffuse; rust and patina are dielectrics (F0 0.04) whose
+albedo reaches ~0.45 (light verdigris), so the class's diffuse range tops out there and its F0 range starts at the
+oxides' 0.04 (minus a margin).
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -8,6 +14,8 @@ from ..compose import P, finish, lerp, rgb, rgb_fixed, rgb_params
 from ..noise import Tex, smoothstep
 from ..patterns import scratches, worley
 from ..registry import register_class, register_preset
+
+PHYSICAL = {"diffuse": (0.0, 0.45), "specular": (0.03, 1.0), "roughness": (0.02, 1.0)}
 
 PARAMS = [
     *rgb_params("metal", (0.91, 0.92, 0.92), "specular colour F0 of the bare metal"),
@@ -77,3 +85,8 @@ register_preset("metal/bronze_patina", "metal", {
     **rgb("metal", (0.8, 0.55, 0.35), (-0.1, 0.1)),
     "oxide": (0.45, 0.2, 0.8), **rgb("oxide", (0.3, 0.6, 0.5), (-0.1, 0.1)), "oxide_scale": (0.12, 0.05, 0.3),
     "roughness": (0.3, 0.15, 0.55), "hammered": (0.2, 0.0, 0.5)})
+# hammered steel: dense overlapping dents from a planishing hammer, satin
+register_preset("metal/hammered_steel", "metal", {
+    **rgb("metal", (0.72, 0.72, 0.74), (-0.12, 0.1)),
+    "hammered": (0.8, 0.5, 1.0), "dent_count": (24, 16, 36), "roughness": (0.3, 0.15, 0.5), "rough_var": (0.15, 0.0, 0.3),
+    "scratch_count": (20, 0, 80)})

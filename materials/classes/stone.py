@@ -1,4 +1,9 @@
-"""Stone: marble veins, granite speckle, cobbles/flagstones (cells), layered slate; rough dielectric."""
+"""Stone: marble veins, granite speckle, cobbles/flagstones (cells), layered slate; rough dielectric.
+
+Physical ranges (``PHYSICAL``): rock-forming minerals are dielectrics with n 1.5-1.7 (calcite 1.6, quartz 1.55):
+F0 0.04-0.06, one F0 per stone; albedo from basalt/slate ~0.03 to white marble ~0.85 (linear; physicallybased.info's
+measured albedos, the stone scans of materials-cc0).
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -8,6 +13,8 @@ from ..compose import P, finish, lerp, rgb, rgb_fixed, rgb_params, tint
 from ..noise import Tex, smoothstep, warp
 from ..patterns import worley
 from ..registry import register_class, register_preset
+
+PHYSICAL = {"diffuse": (0.02, 0.85), "specular": (0.03, 0.06), "roughness": (0.03, 1.0)}
 
 PARAMS = [
     *rgb_params("color", (0.55, 0.53, 0.5), "main stone colour"),
@@ -38,7 +45,7 @@ def stone(p: dict, size: int, rng: np.random.Generator):
     t1, t2 = tex.fbm2(p["vein_scale"], beta=3.2)
     vf = tex.fbm(p["vein_scale"], beta=3.6)
     sp, spc = tex.fbm2(p["speckle_size"] * 4, beta=0.5)
-    b1, b2 = tex.fbm2(p["bump_scale"], beta=2.8)
+    b1, b2 = tex.fbm2(p["bump_scale"], beta=3.4)  # steeper than 3: the relief's slopes sit at mid scales
     lay = tex.fbm(0.8, beta=3.0, aniso=12.0, angle=0.3)
     nc = int(round(p["cells"]))
     f1, f2, cid, rnd = worley(tex, max(nc, 1), 0.85, enabled=nc > 0)
@@ -63,8 +70,9 @@ def stone(p: dict, size: int, rng: np.random.Generator):
     h = flat * (0.003 * p["bump"] * p["bump_scale"] * 10 * b1 + 0.002 * p["layers"] * lay) + dome - 0.004 * joint_m
     r = p["roughness"] * (1 - 0.85 * p["polish"]) + 0.08 * b2 + 0.2 * joint_m
     # F0: higher where polished, lower in the joints, mottled with the colour noise (was a constant 0.04)
-    spec = 0.04 * (1 + 0.6 * p["polish"]) * np.clip(1 + 0.25 * b2, 0.5, 1.5) * (1 - 0.4 * joint_m)
-    return finish(h, 1.0, col, spec[..., None], np.clip(r, 0.03, 1))
+    # F0: one mineral surface (a polish raises it a little), the joints' mortar a little lower
+    spec = (0.04 + 0.01 * p["polish"]) * (1 - 0.15 * joint_m)
+    return finish(h, 1.0, col, spec[..., None], np.clip(r, 0.03, 1), albedo=PHYSICAL["diffuse"])
 
 
 register_preset("stone/white_marble", "stone", {
@@ -72,7 +80,7 @@ register_preset("stone/white_marble", "stone", {
     "veins": (0.8, 0.4, 1.0), "vein_scale": (0.45, 0.2, 0.9), "turbulence": (0.8, 0.3, 1.5), "polish": (0.85, 0.5, 1.0)},
     fixed={"bump": 0.1})
 register_preset("stone/granite_grey", "stone", {
-    **rgb("color", (0.55, 0.53, 0.52), (-0.15, 0.15)), **rgb("vein", (0.1, 0.1, 0.1), (-0.05, 0.2)),
+    **rgb("color", (0.55, 0.53, 0.52), (-0.15, 0.15)), **rgb("vein", (0.1, 0.1, 0.1), (-0.05, 0.3)),
     "speckle": (0.8, 0.4, 1.0), "speckle_size": (0.008, 0.004, 0.02), "polish": (0.4, 0.0, 0.9),
     "roughness": (0.6, 0.4, 0.8)}, fixed={"bump": 0.2})
 register_preset("stone/cobblestones", "stone", {
@@ -90,3 +98,7 @@ register_preset("stone/flagstones", "stone", {
     **rgb("color", (0.5, 0.45, 0.38), (-0.15, 0.15)),
     "cells": (3, 2, 5), "cell_gap": (0.03, 0.015, 0.06), "cell_var": (0.25, 0.1, 0.5), "bump": (0.5, 0.2, 0.9),
     "bump_scale": (0.08, 0.03, 0.2), "layers": (0.3, 0.0, 0.7)}, fixed={"cell_round": 0.2})
+# bush-hammered granite: the face dressed with a pointed hammer, pitted at mid scales, matte
+register_preset("stone/bush_hammered", "stone", {
+    **rgb("color", (0.6, 0.58, 0.56), (-0.15, 0.12)), **rgb("vein", (0.15, 0.15, 0.15), (-0.1, 0.35)),
+    "bump": (0.9, 0.6, 1.0), "bump_scale": (0.04, 0.025, 0.07), "speckle": (0.6, 0.3, 0.9), "roughness": (0.85, 0.7, 1.0)})

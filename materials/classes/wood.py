@@ -1,12 +1,20 @@
-"""Wood: planks with growth rings, fibres and pores along the grain, optional varnish."""
+"""Wood: planks with growth rings, fibres and pores along the grain, grooves, cupping, saw marks, optional varnish.
+
+Physical ranges (``PHYSICAL``): wood albedo spans dark walnut/wenge ~0.03 to bleached maple ~0.7 (linear;
+physicallybased.info's measured albedos and the wood scans of materials-cc0, whose diffuse luminance is
+0.05-0.35); cellulose and lacquer are dielectrics of F0 ~0.04-0.05 (n 1.5-1.55). Roughness covers high-gloss
+varnish to weathered boards.
+"""
 from __future__ import annotations
 
 import numpy as np
 
 from ..color import color_param
-from ..compose import P, finish, lerp, rgb, rgb_params, tint
+from ..compose import P, finish, lerp, rgb, rgb_params, slope_scaled, tint
 from ..noise import F32, Tex, smoothstep
 from ..registry import register_class, register_preset
+
+PHYSICAL = {"diffuse": (0.02, 0.75), "specular": (0.035, 0.055), "roughness": (0.03, 1.0)}
 
 PARAMS = [
     *rgb_params("color", (0.75, 0.52, 0.3), "early (light) wood colour"),
@@ -22,6 +30,9 @@ PARAMS = [
     P("roughness", 0.5, 0.05, 0.9, "roughness of the wood surface"),
     P("varnish", 0.0, 0.0, 1.0, "glossy varnish coat (lower roughness, slightly higher F0)"),
     P("knots", 0.0, 0.0, 1.0, "dark knot blotches"),
+    P("cup", 0.3, 0.0, 1.0, "cupping and uneven laying of the planks"),
+    P("saw_marks", 0.0, 0.0, 1.0, "band-saw marks across the grain (rough-sawn timber)"),
+    P("ribs", 0, 0, 8, "anti-slip ribs along each plank (decking; 0: none)", "int"),
 ]
 
 
@@ -32,13 +43,19 @@ def wood(p: dict, size: int, rng: np.random.Generator):
     early = color_param(p, "color")
     npl = int(round(p["planks"]))
     w1, w2 = tex.fbm2(0.35, beta=3.5, aniso=4.0, angle=np.pi / 2)
-    fib = tex.fbm(0.25, beta=1.6, aniso=30.0, angle=np.pi / 2, detail=0.5 / size)
+    # fibres: fine streaks along the grain in the colour (figure); their relief low-passed across the grain so
+    # that it stays at mid scales
+    fibc = tex.fbm(0.25, beta=1.6, aniso=30.0, angle=np.pi / 2, detail=0.5 / size)
     pore = tex.fbm(0.1, beta=1.0, aniso=12.0, angle=np.pi / 2)
     kn = tex.blobs(0.05)
     g = tex.sub()
     poff = g.random(12).astype(F32)  # per plank ring phase / colour offsets (fixed count: size-free draws)
     pcol = g.standard_normal(12).astype(F32)
     pshift = g.random(12).astype(F32)
+    pcup, ptilt = (g.standard_normal((2, 12))).astype(F32)
+    # layers added for #23 draw their seeds after the older ones: the older layers keep their layout
+    fib = tex.fbm(0.25, beta=1.6, aniso=8.0, angle=np.pi / 2, detail=0.25)
+    saw = tex.fbm(0.5, beta=3.0, aniso=0.15, angle=np.pi / 2, detail=0.2)  # ridges across the grain
 
     x = tex.u * npl + 0.5  # the seam crosses a plank, not a groove (see patterns.tiles)
     plank = np.floor(x).astype(np.int32)
@@ -52,18 +69,28 @@ def wood(p: dict, size: int, rng: np.random.Generator):
     knot = np.clip(kn + pshift[plank % npl] - 3.0 + 2.0 * p["knots"], 0, 1) * min(1.0, 20 * p["knots"])
     col = tint(early, pcol[plank % npl] * np.ones_like(fx), p["plank_var"])
     col = col * (1 - p["late_dark"] * late - 0.6 * knot)[..., None]
-    col = col * (1 + 0.08 * fib)[..., None]
+    col = col * (1 + 0.08 * fibc)[..., None]
     porem = np.clip(pore - 0.8, 0, None)
     col = col * (1 - 0.35 * p["pores"] * porem)[..., None]  # open pores read darker
     edge = np.minimum(fx, 1 - fx) / npl
-    groove = 1 - smoothstep(0.0, max(p["plank_gap"], 1e-6), edge) if p["plank_gap"] > 0 else np.zeros_like(fx)
-    h = 0.0004 * p["fibres"] * fib - 0.0006 * p["pores"] * porem - 0.003 * groove + 0.0004 * late
-    col = col * (1 - 0.5 * groove)[..., None]
+    gap = p["plank_gap"]
+    groove = 1 - smoothstep(0.0, max(gap, 1e-6), edge) if gap > 0 else np.zeros_like(fx)
+    # a bevelled (eased) edge twice the gap wide carries the groove's relief at the plank scale, not in 1 px
+    bevel = (1 - smoothstep(0.0, 4 * gap + 0.01, edge)) ** 2 if gap > 0 else np.zeros_like(fx)
+    pw = 1.0 / npl  # plank width, texture widths
+    pid = plank % npl
+    shape = p["cup"] * pw * (0.02 * pcup[pid] * (fx - 0.5) ** 2 + 0.01 * ptilt[pid] * (fx - 0.5))
+    ribs = int(round(p["ribs"]))
+    rib = (np.sin(np.pi * fx * ribs) ** 2 * pw * 0.006) if ribs else 0.0
+    # rings and pores are fine detail (56+ cycles per map): kept shallow so mid-scale relief dominates
+    h = (slope_scaled(fib, 0.05 * p["fibres"] + 1e-6) - 0.00015 * p["pores"] * porem - 0.0025 * bevel
+         + 0.00015 * late + shape + rib + slope_scaled(saw, 0.12 * p["saw_marks"] + 1e-6))
+    col = col * (1 - 0.5 * groove - 0.1 * p["saw_marks"] * np.clip(saw, 0, None))[..., None]
     v = p["varnish"]
     r = lerp((p["roughness"] + 0.1 * late)[..., None], np.full(1, 0.08, F32), np.full(fx.shape, v, F32))[..., 0]
-    r = r + 0.15 * (1 - v) * porem
-    spec = (0.035 + 0.035 * v) * (1 - 0.4 * np.clip(porem, 0, 1)) * np.clip(1 + 0.15 * fib, 0.6, 1.4)
-    return finish(h * (1 - 0.6 * v), 1.0, col, spec[..., None], np.clip(r, 0.03, 1))
+    r = r + 0.15 * (1 - v) * porem + 0.1 * p["saw_marks"]
+    spec = 0.04 + 0.01 * v  # cellulose, or the lacquer over it: one F0 each
+    return finish(h * (1 - 0.6 * v), 1.0, col, spec, np.clip(r, 0.03, 1), albedo=PHYSICAL["diffuse"])
 
 
 register_preset("wood/oak_planks", "wood", {
@@ -91,3 +118,13 @@ register_preset("wood/mahogany_veneer", "wood", {
     **rgb("color", (0.5, 0.2, 0.1), (-0.1, 0.1)),
     "ring_distort": (1.4, 0.8, 2.0), "rings": (25, 15, 40), "varnish": (0.6, 0.3, 1.0), "late_dark": (0.4, 0.2, 0.6)},
     fixed={"planks": 1, "plank_gap": 0.0})
+# rough-sawn timber: band-saw ridges across the grain, open and rough, no finish
+register_preset("wood/rough_sawn", "wood", {
+    **rgb("color", (0.7, 0.56, 0.4), (-0.15, 0.1)),
+    "saw_marks": (0.7, 0.4, 1.0), "fibres": (0.7, 0.4, 1.0), "roughness": (0.8, 0.65, 0.9), "planks": (2, 1, 3),
+    "rings": (10, 6, 16), "late_dark": (0.3, 0.15, 0.5)}, fixed={"plank_gap": 0.008, "cup": 0.6})
+# hardwood decking: anti-slip ribs along every board, wide gaps, weathered brown
+register_preset("wood/decking_ribbed", "wood", {
+    **rgb("color", (0.55, 0.38, 0.25), (-0.15, 0.12)),
+    "ribs": (3, 2, 5), "planks": (4, 3, 6), "plank_gap": (0.012, 0.008, 0.015), "roughness": (0.7, 0.5, 0.85),
+    "plank_var": (0.2, 0.05, 0.4), "cup": (0.5, 0.2, 1.0)}, fixed={"rings": 16})
