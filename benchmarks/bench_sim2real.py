@@ -12,7 +12,8 @@ What it runs, each step the command a user runs (so the figures are those of the
    (imported at the stated physical scale, rendered with the training views; reused when finished);
 4. ``svtrain eval --checkpoint RUN --store WORK/ref_crop<C>/renders.zarr`` on each, side by side (a store that is
    not the run's training store: every view, as ``svtrain eval-reference`` does), its eval.md copied to
-   ``benchmarks/results/sim2real/crop_<C>.md``. Baselines: the training split's means, as in every eval.
+   ``benchmarks/results/sim2real/crop_<C>.md``; and ``svtrain eval --checkpoint RUN`` on the run's own held-out split
+   (``scales.heldout``, ``sim2real/heldout.md``). Baselines: the training split's means, as in every eval.
 
 Results: key ``sim_to_real`` of ``benchmarks/results/realism.json`` (read, modified, written: other keys, such as
 ``statistics`` written by bench_realism.py, are kept): per crop the model's and both baselines' RMSE per column
@@ -183,6 +184,13 @@ def main(argv=None) -> None:
             f"# Sim-to-real: {trained.get('steps')} steps, reference crop {crop:g}\n\n"
             f"{trained.get('steps_from')}; reference {ref.name} imported at crop {crop:g} and rendered "
             f"with params.yaml's render section.\n\n{(ev / 'eval.md').read_text()}")
+    # beside the reference: the run's own held-out split (materials of the training library it never saw), so one
+    # file says how the same model does on svgen's held-out and on real materials
+    ev = work / f"eval_{run.stem}_heldout"
+    sh(["svtrain", "eval", "--checkpoint", str(run), "--out", str(ev)], log)
+    scales["heldout"] = {"crop": None, **summarise(json.loads((ev / "eval.json").read_text()))}
+    (tables / "heldout.md").write_text(f"# Held-out: {trained.get('steps')} steps\n\n{trained.get('steps_from')}; "
+                                       f"the training store's held-out split.\n\n{(ev / 'eval.md').read_text()}")
     n_ref = sum(1 for _ in ref.iterdir() if _.is_dir())
     block = {"benchmark": "bench_sim2real", "reference": {"folder": ref.name, "material_folders": n_ref},
              "training": trained,
