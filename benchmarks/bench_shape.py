@@ -273,8 +273,9 @@ def summarise(results: dict, steps: int, resamples: int = 2000) -> dict:
     return out
 
 
-def chart(summary: dict, png: Path, steps: int, choice: str) -> None:
-    """Each arm's held-out normal RMSE relative to flat (with its interval), grouped by factor."""
+def chart(summary: dict, png: Path, steps: int, choice: str, cross: dict | None = None) -> None:
+    """Each arm's held-out normal RMSE relative to flat (with its interval), grouped by factor; with ``cross``, the
+    arm's model on the real reference store too (``--cross ARM ref``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -290,13 +291,18 @@ def chart(summary: dict, png: Path, steps: int, choice: str) -> None:
             v = r[split]
             ax.errorbar(v["rel"], y + off, xerr=[[v["rel"] - v["ci95"][0]], [v["ci95"][1] - v["rel"]]], fmt=mk,
                         color=colours[r["factor"]], alpha=1.0 if split == "heldout" else 0.5, capsize=2)
+        c = (cross or {}).get(f"{n} on ref")
+        if c:
+            ax.errorbar(c["rel"], y - 0.18, xerr=[[c["rel"] - c["ci95"][0]], [c["ci95"][1] - c["rel"]]], fmt="^",
+                        color="k", capsize=2, ms=4)
     ax.set_yticks(range(len(names)), [f"{n} ({summary[n]['factor']})" for n in names])
     ax.invert_yaxis()
     ax.axvline(1.0, color="k", lw=0.8)
     ax.axvline(0.75, color="tab:red", lw=0.8, ls="--")
-    ax.text(0.75, len(names) - 0.4, " aim (25 % below flat)", color="tab:red", fontsize=8)
+    ax.text(0.75, len(names) - 0.4, " aim", color="tab:red", fontsize=8)
     ax.text(1.0, len(names) - 0.4, " flat", fontsize=8)
-    ax.set_xlabel(f"normal RMSE / flat map's (o held-out, x training views; 95 % interval), {steps} steps")
+    ax.set_xlabel(f"normal RMSE / flat map's (o held-out, x training views, ^ real CC0 reference; 95 % interval), "
+                  f"{steps} steps", fontsize=8)
     ax.set_title(f"Learning shape: one factor at a time (compact preset at width 8, 128² crops)\nChoice: {choice}",
                  fontsize=9)
     fig.tight_layout()
@@ -389,7 +395,7 @@ def main(argv=None) -> None:
         results["commands"].append(" ".join(["python3", "benchmarks/bench_shape.py", *(argv or sys.argv[1:])]))
     write_results(out, _payload(results, a), a.note)
     s = json.loads(out.read_text())
-    chart(s["summary"], Path(a.png), a.steps, s.get("choice") or a.choice)
+    chart(s["summary"], Path(a.png), a.steps, s.get("choice") or a.choice, s.get("cross"))
     for n, r in s["summary"].items():
         e = r.get("effect")
         print(f"{n:18s} held-out {r['heldout']['rel']:.3f} {r['heldout']['ci95']}  train {r['train']['rel']:.3f}"
