@@ -143,7 +143,12 @@ def _load():
     # materials/__init__.py re-exports under the same name, and never import the subpackage
     import importlib
 
+    import sys
+
     importlib.import_module(f"{__package__}.classes")  # registers every class module and preset
+    # importing the subpackage binds it as the package attribute `classes`, over the re-exported function: put the
+    # function back, so `from materials import classes` means the same whatever was imported first
+    sys.modules[__package__].classes = classes
 
 
 def get_class(name: str) -> MaterialClass:

@@ -59,7 +59,7 @@ def free_disk(path: str | os.PathLike) -> int:
 
 def _partial_bytes(out) -> int:
     """Bytes already on disk in the ``.partial`` store of ``out`` (a resume needs only the rest)."""
-    from .local import partial_path
+    from .objstore import partial_path
 
     part = partial_path(out)
     return sum(f.stat().st_size for f in part.rglob("*") if f.is_file()) if part.is_dir() else 0

@@ -71,7 +71,7 @@ SCHEMA_VERSION = 3
 SMALL_SAMPLE_BYTES = 4096
 MANIFEST = "svgen_manifest.json"
 CREATING_SUFFIX = ".creating"
-PARTIAL_SUFFIX = ".partial"
+from .objstore import PARTIAL_SUFFIX, partial_path  # noqa: E402,F401 (defined below the backends: bounds uses them)
 #: the temporary name of a chunk zarr's LocalStore is writing (zarr/storage/_local.py: ``.{uuid4 hex}.partial``).
 ZARR_TMP = re.compile(r"\.[0-9a-f]{32}\.partial$")
 LOCK_SUFFIX = ".lock"
@@ -136,11 +136,6 @@ def _store_versions() -> dict[str, str]:
     :func:`svcore.versions.svgen_version`). It names the checkout, so two runs compared byte for byte must run the
     same code tree (tests/test_dvc_pipeline.py runs its reference with the ``svgen`` that ``dvc repro`` runs)."""
     return library_versions()
-
-
-def partial_path(path: str | os.PathLike) -> Path:
-    p = Path(local_path(path))
-    return p.with_name(p.name + PARTIAL_SUFFIX)
 
 
 def inside(path: str | os.PathLike, other: str | os.PathLike) -> bool:

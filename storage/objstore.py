@@ -44,6 +44,16 @@ DEFAULT_OPTIONS = {"config_kwargs": {"connect_timeout": 3, "read_timeout": 20, "
 S3FS_RETRIES = 2
 
 
+#: the suffix of a store being written (renamed onto the final name when complete)
+PARTIAL_SUFFIX = ".partial"
+
+
+def partial_path(path: str | os.PathLike) -> Path:
+    """The ``.partial`` sibling a local store is written in before it is complete."""
+    p = Path(local_path(path))
+    return p.with_name(p.name + PARTIAL_SUFFIX)
+
+
 def scheme(path) -> str | None:
     """The URL scheme of a store argument (lower case), or None for a plain path."""
     m = _URL.match(str(path))

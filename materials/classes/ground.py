@@ -1,4 +1,10 @@
-"""Ground: soil, sand, gravel, dried mud, forest floor; very rough, low specular."""
+"""Ground: soil, sand, gravel, dried mud, forest floor; very rough, low specular.
+
+Physical ranges (``PHYSICAL``): soils and sands are dielectric mineral/organic mixtures, F0 0.02-0.08 (quartz and
+calcite 0.04-0.05, a water film 0.02; the wet patches shine by their lower roughness); linear albedo from wet dark
+soil ~0.02 to dry light sand ~0.75 (physicallybased.info's measured albedos: soil 0.03-0.3, desert sand ~0.4-0.6;
+the ground scans of materials-cc0); roughness at least 0.1 (no ground is polished).
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -8,6 +14,8 @@ from ..compose import P, finish, lerp, rgb, rgb_params, tint
 from ..noise import Tex, smoothstep
 from ..patterns import scratches, worley
 from ..registry import register_class, register_preset
+
+PHYSICAL = {"diffuse": (0.02, 0.75), "specular": (0.02, 0.08), "roughness": (0.1, 1.0)}
 
 PARAMS = [
     *rgb_params("soil", (0.35, 0.25, 0.17), "soil colour"),
@@ -54,8 +62,8 @@ def ground(p: dict, size: int, rng: np.random.Generator):
     wm = smoothstep(0.0, 0.5, wet + 1.2 * p["moisture"] - 1.0) * min(1.0, 20 * p["moisture"])
     col = col * (1 - 0.45 * wm)[..., None]
     r = p["roughness"] - 0.45 * wm - 0.2 * pebm + 0.05 * b2
-    spec = np.clip(0.025 + 0.04 * wm + 0.006 * b2, 0.01, 0.1)  # wet patches shine (was 0.03 + 0.01 wm)
-    return finish(h, 1.0, col, spec[..., None], np.clip(r, 0.1, 1))
+    spec = np.clip(0.025 + 0.04 * wm + 0.006 * b2, *PHYSICAL["specular"])  # wet patches shine (was 0.03 + 0.01 wm)
+    return finish(h, 1.0, col, spec[..., None], np.clip(r, *PHYSICAL["roughness"]), albedo=PHYSICAL["diffuse"])
 
 
 register_preset("ground/dry_soil", "ground", {
