@@ -28,7 +28,7 @@ class SampleConfig(StageConfig):
 
     SECTION: ClassVar[str] = "sample"
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
-        "default": {}, "tiny": {"per_preset": 2, "size": 64, "chunk": 8}, "paper": {"per_preset": 36, "size": 288}}
+        "default": {}, "tiny": {"per_preset": 2, "size": 64, "chunk": 8}, "paper": {"per_preset": 10, "size": 288}}
 
     per_preset: int = Field(12, ge=1)
     """Variants per base material (the paper's scale, ~1,850 variants, is the paper preset's value:
