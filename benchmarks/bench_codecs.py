@@ -241,7 +241,10 @@ def load(path: Path, kind: str, samples: int) -> tuple[dict[str, np.ndarray], li
     g = open_store(path, kind)
     n = int(g.attrs["svgen"]["n"])
     idx = np.unique(np.linspace(0, n - 1, min(samples, n)).round().astype(int))
-    return {name: np.ascontiguousarray(a.oindex[idx]) for name, a in sorted(g.arrays())}, idx.tolist()
+    # numeric arrays only: the string name arrays (storage/labels.py) are derived at commit, tiny, and not what the
+    # codecs are chosen for
+    return {name: np.ascontiguousarray(a.oindex[idx]) for name, a in sorted(g.arrays())
+            if a.dtype.kind in "iuf"}, idx.tolist()
 
 
 def stores_codec() -> str:

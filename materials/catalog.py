@@ -47,7 +47,7 @@ def markdown(cls: str | None = None) -> str:
              f"{s['classes']} classes, {s['base_materials']} base materials (presets), "
              f"{s['mean_params']:.1f} exposed parameters per preset on average "
              f"({s['min_params']}–{s['max_params']}). Colours of kind `srgb` are sRGB-encoded channels, decoded "
-             "to linear once per generation. Maps are linear float32 in [0, 1] (DESIGN.md).", "",
+             "to linear once per generation. Maps are linear float32 in [0, 1] (docs/CONVENTIONS.md).", "",
              "Contact sheet: [img/materials_sheet.png](img/materials_sheet.png) "
              "(per preset: normal, diffuse, roughness, specular, flash rendering).", ""]
     for name, mc in sorted(classes().items()):

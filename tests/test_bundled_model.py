@@ -108,6 +108,9 @@ def test_fine_tuning_starts_at_the_bundled_weights():
     cfg.data.synthetic_samples, cfg.data.synthetic_materials, cfg.data.workers = 8, 4, 0
     cfg.optim.iterations, cfg.optim.batch_size, cfg.optim.compile_loss = 1, 2, False
     cfg.optim.init = "bundled"
+    # the bundled network's shape (the compact default may have moved on since it was trained)
+    shipped_model = checkpoint.load("bundled")["config"]["model"]
+    cfg.model.base_width, cfg.model.max_width = shipped_model["base_width"], shipped_model["max_width"]
     cfg.check()
     trainer = Trainer(cfg)
     seen = []

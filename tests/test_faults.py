@@ -98,13 +98,14 @@ def test_full_disk_is_one_line_and_keeps_earlier_outputs(small_disk):
                      "--workers", "0")
     assert code == 0, err
     before = tree_digest(first)
-    # 51 presets x 2 variants of 128^2 uint16 maps: ~11 MB compressed, far more than 3 MiB, yet above the up-front
-    # disk bound (raw / 64 = 0.5 MB), so the run starts and meets the full disk
+    # every preset x 2 variants of 128^2 uint16 maps: far more than the 3 MiB disk holds. Since #24 the up-front
+    # bound uses the compression real stores measure (raw / 2), so the run is refused before it writes anything
+    # (a full disk met mid-write is test_full_disk_through_dask_workers_is_one_line_and_resumes below)
     big = small_disk / "big.zarr"
     code, err = call("sample", big, "--size", "128", "--per-preset", "2", "--chunk", "2", "--workers", "0")
     assert code != 0 and err.count("\n") == 1 and "Traceback" not in err, err
-    assert "No space left on device" in err and "resumes" in err, err
-    assert not big.exists()  # a partial store may stay (to resume); a complete-looking one never
+    assert "need about" in err and "free under" in err, err
+    assert not big.exists() and not (small_disk / "big.zarr.partial").exists()  # nothing written at all
     assert tree_digest(first) == before
 
 
