@@ -142,6 +142,12 @@ class RendersReader:
         while len(self._planes) > self.plane_cache:
             self._planes.pop(next(iter(self._planes)))
 
+    @property
+    def held_bytes(self) -> int:
+        """Bytes the caches hold now (decoded chunks plus planes): at most :attr:`cache_bytes` and the planes' one
+        SVBRDF of rounding (what a loader's memory budget counts)."""
+        return int(self._cache._bytes) + len(self._planes) * self.plane_bytes
+
     def __len__(self) -> int:
         return self.n_svbrdf * self.views
 
