@@ -179,11 +179,18 @@ def test_photos_far_from_the_training_ones_are_flagged_in_prediction_json(tmp_pa
 
 
 # -- svtrain bundle ---------------------------------------------------------------------------------------------
-def test_bundle_writes_a_loadable_model_with_its_card(renders, tmp_path):
-    run_dir = tmp_path / "run"
+@pytest.fixture(scope="module")
+def tiny_run(renders, tmp_path_factory):
+    """A 2-step run of a tiny network on the tiny store."""
+    run_dir = tmp_path_factory.mktemp("bundle") / "run"
     code, _, err = run("fit", "--out", run_dir, "--iterations", 2, *SMALL, "--store", renders,
                        "--set", "data.synthetic_size=32")
     assert code == 0, err
+    return run_dir
+
+
+def test_bundle_writes_a_loadable_model_with_its_card(tiny_run, tmp_path):
+    run_dir = tiny_run
     into = tmp_path / "bundled"
     code, _, err = run("bundle", run_dir, "--into", into, "--limit", 4)
     assert code == 0, err
@@ -193,6 +200,31 @@ def test_bundle_writes_a_loadable_model_with_its_card(renders, tmp_path):
     card = (into / "MODEL_CARD.md").read_text()
     assert "Placeholder" in card and "### Held-out materials" in card and "95 % interval" in card
     assert json.loads((into / "bundled.json").read_text())["placeholder"] is True
+    assert "Not evaluated for this card: no reference store" in card
     assert "store_resolved" not in json.dumps(net_state["provenance"])  # no resolved path of this machine
     code, _, err = run("bundle", tmp_path, "--into", into)  # not a run: one line
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+
+
+def test_bundle_evaluates_the_reference_store_when_params_list_sources(tiny_run, renders, tmp_path):
+    """With reference sources listed, the card's real-material table is the model's eval on every view of the
+    reference store (here the tiny store stands in for one); listed but absent is refused in one line."""
+    params = tmp_path / "params.yaml"
+    params.write_text(yaml.safe_dump({"reference": {"sources": [str(tmp_path / "materials-cc0")], "crop": 0.5}}))
+    into = tmp_path / "bundled"
+    code, _, err = run("bundle", tiny_run, "--into", into, "--limit", 4, "--reference-store", renders,
+                       "--params", params, "--final")
+    assert code == 0, err
+    card = (into / "MODEL_CARD.md").read_text()
+    assert "Placeholder" not in card
+    section = card.split("### Real-material reference store")[1].split("## Intended use")[0]
+    assert "4 real CC0 materials (materials-cc0, imported at crop 0.5)" in section, section  # 4 SVBRDFs x 2 views
+    assert str(tmp_path) not in card  # folder names only, no paths of this machine
+    ref = json.loads((tiny_run / "bundle_eval_reference" / "eval" / "eval.json").read_text())
+    assert ref["samples"] == 8  # every view of the store, as svtrain eval-reference evaluates
+    assert f"| model | {ref['model']['rerender']:.4f} | {ref['model']['normal']:.4f} |" in section
+    manifest = json.loads((into / "bundled.json").read_text())
+    assert manifest["placeholder"] is False and manifest["reference_normal_rmse"] == round(ref["model"]["normal"], 5)
+    code, _, err = run("bundle", tiny_run, "--into", tmp_path / "b2", "--reference-store", tmp_path / "none.zarr",
+                       "--params", params)
     assert code == 2 and len(err.strip().splitlines()) == 1, err

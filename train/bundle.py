@@ -2,9 +2,9 @@
 
 Writes into ``train/bundled/`` (or ``--into``): ``model.pt`` (weights only: config, weights, step, provenance with
 no machine paths), ``bundled.json`` (its SHA-256, size and summary, :mod:`train.bundled_model`) and
-``MODEL_CARD.md``, generated here from the run and from two evaluations it runs (``svtrain eval``'s held-out and
-stress suites, tables with 95 % bootstrap intervals), so that the card is reproduced with the model by the DVC stage
-``train_bundled`` (the exact commands are in the card).
+``MODEL_CARD.md``, generated here from the run and from the evaluations it runs (``svtrain eval``'s held-out and
+stress suites and ``svtrain eval-reference``'s real materials, tables with 95 % bootstrap intervals), so that the
+card is reproduced with the model by the DVC stage ``train_bundled`` (the exact commands are in the card).
 """
 from __future__ import annotations
 
@@ -84,8 +84,38 @@ def weights_state(run: Path) -> dict[str, Any]:
             "network_format": state.get("network_format", checkpoint.NETWORK_FORMAT)}
 
 
+def _reference_section(reference: dict | None) -> list[str]:
+    """The card's real-material table, or why there is none."""
+    head = ["### Real-material reference store", ""]
+    if reference is None:
+        return head + ["Not evaluated for this card: no reference store (params.yaml `reference.sources` empty, or "
+                       "`svtrain bundle` run without `--reference-store`). README \"How real is the data?\" says how "
+                       "to build one from real CC0 materials.", ""]
+    src = reference.get("reference_source") or {}
+    what = (f"{src.get('materials', '?')} real CC0 materials ({src.get('folders', 'reference.sources')}, imported at "
+            f"crop {src.get('crop', '?')}) rendered with the training views, every view evaluated; never trained on. "
+            "The baselines' normal is the flat map, so the normal column's gain is the model's gain over flat.")
+    return head + [what, "", markdown(reference).rstrip(), ""]
+
+
+def _reference_source(params_file: str | Path, store: str | Path) -> dict:
+    """What the reference store holds, for the card: material count, source folder names (no paths), crop."""
+    import zarr
+
+    from svcore.config import params_section
+
+    section = params_section(params_file, "reference") if Path(params_file).exists() else {}
+    n = None
+    try:
+        n = int(zarr.open_group(str(store), mode="r")["image"].shape[0])
+    except Exception:  # the eval already opened it; a count is only a label
+        pass
+    return {"materials": n, "folders": ", ".join(Path(str(f)).name for f in section.get("sources") or []),
+            "crop": section.get("crop", 1.0)}
+
+
 def card(run: Path, state: dict, metrics: dict, data: dict, heldout: dict, stress: dict | None,
-         flags: dict, size_bytes: int, placeholder: bool) -> str:
+         flags: dict, size_bytes: int, placeholder: bool, reference: dict | None = None) -> str:
     """The model card's markdown."""
     cfg = state["config"]
     versions = state["provenance"].get("versions", {})
@@ -127,7 +157,10 @@ def card(run: Path, state: dict, metrics: dict, data: dict, heldout: dict, stres
               "From a checkout, after the data stages of `dvc repro` (the default `params.yaml`):", "",
               "```bash", *RECIPE, "```", "",
               "This is the DVC stage `train_bundled` (frozen, so that `dvc repro` leaves it out: "
-              "`dvc unfreeze train_bundled && dvc repro train_bundled && dvc freeze train_bundled`).", "",
+              "`dvc unfreeze train_bundled && dvc repro train_bundled && dvc freeze train_bundled`). The "
+              "real-material table needs the reference store: list the real material folders in params.yaml "
+              "`reference.sources` (this card: `[../shared/materials-cc0]`, `reference.crop: 1.0`) so that the "
+              "`reference` stage renders them.", "",
               "## Licence", "", LICENCE, "",
               "## Evaluation", "",
               "RMSE against the ground-truth maps and re-renderings, beside two baselines (the input photo as the "
@@ -137,9 +170,8 @@ def card(run: Path, state: dict, metrics: dict, data: dict, heldout: dict, stres
               "### Held-out materials", "", markdown(heldout).rstrip(), ""]
     if stress is not None:
         lines += ["### Stress suite (one group per category)", "", markdown(stress).rstrip(), ""]
-    lines += ["### Real-material reference store", "",
-              "To be added when the reference stage (real CC0 materials rendered as a yardstick) lands.", "",
-              "## Intended use", "",
+    lines += _reference_section(reference)
+    lines += ["## Intended use", "",
               "- Estimating SVBRDF maps of a roughly flat, roughly fronto-parallel material sample from one photo "
               "taken with the phone's flash on, for previews, look-development starting points and research.",
               "- Fine-tuning (`svtrain fit --init bundled`) and export (`svtrain export-model bundled --format onnx "
@@ -164,7 +196,8 @@ def card(run: Path, state: dict, metrics: dict, data: dict, heldout: dict, stres
 
 
 def bundle(run_dir: str | Path, stress_store: str | None = None, into: str | Path | None = None,
-           limit: int | None = 400, placeholder: bool = True, device: str = "cpu") -> Path:
+           limit: int | None = 400, placeholder: bool = True, device: str = "cpu",
+           reference_store: str | None = None, params_file: str | Path = "params.yaml") -> Path:
     """Evaluate a finished run and write it as the bundled model with its card.
 
     Args:
@@ -173,12 +206,16 @@ def bundle(run_dir: str | Path, stress_store: str | None = None, into: str | Pat
         into: the folder to write (default: the package's ``train/bundled``).
         limit: held-out views evaluated (as the DVC eval stage's ``eval.limit``).
         placeholder: mark the card and manifest as a placeholder model.
+        reference_store: the reference renders store (``svgen reference OUT``: OUT/renders.zarr), evaluated as
+            ``svtrain eval-reference`` does when ``params_file`` lists reference sources; None: no reference table.
+        params_file: the params file whose ``reference`` section says whether there is a reference.
 
     Returns:
         the folder written.
 
     Raises:
-        SvgenError: not a finished run, or its store is missing.
+        SvgenError: not a finished run, or its store is missing; reference sources listed but no finished
+            reference store.
     """
     run = Path(run_dir)
     if not (run / "model.pt").is_file() or not (run / "metrics.json").is_file():
@@ -192,6 +229,16 @@ def bundle(run_dir: str | Path, stress_store: str | None = None, into: str | Pat
     heldout = run_eval(run, run / "bundle_eval_heldout", suite="heldout", limit=limit, device=device)
     stress = run_eval(run, run / "bundle_eval_stress", suite="stress", store=stress_store, device=device) \
         if stress_store else None
+    reference = None
+    if reference_store:
+        from . import eval_reference
+
+        reference = eval_reference.run(run, params_file, reference_store, run / "bundle_eval_reference", device)
+        if reference is None:
+            log.info("no reference sources in %s (reference.sources is empty): the card has no real-material table",
+                     params_file)
+        else:
+            reference["reference_source"] = _reference_source(params_file, reference_store)
     from .runinfo import train_store
 
     store_path = train_store(run, store)
@@ -207,7 +254,9 @@ def bundle(run_dir: str | Path, stress_store: str | None = None, into: str | Pat
             "data": f"the default store ({data['svbrdfs']} SVBRDFs x {data['render'].get('views')} views)",
             "svgen_version": state["provenance"].get("versions", {}).get("svgen"),
             "heldout_rerender_rmse": round(float(heldout["model"]["rerender"]), 5)}
+    if reference is not None:
+        info["reference_normal_rmse"] = round(float(reference["model"]["normal"]), 5)
     (out / bundled_model.MANIFEST_FILE).write_text(json.dumps(info, indent=2) + "\n")
     (out / bundled_model.CARD_FILE).write_text(card(run, state, metrics, data, heldout, stress, flags, size,
-                                                    placeholder))
+                                                    placeholder, reference))
     return out
