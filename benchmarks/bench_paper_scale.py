@@ -1,7 +1,7 @@
 """Paper scale end to end: sample + blend + render with the paper presets at a fraction of the scale, projected.
 
-Runs ``svgen sample|blend|render --config-preset paper`` (1,836 variants: 51 base materials x 36; 20,000 blends;
-10 views of each at 288², about 218,000 views) with the counts multiplied by ``--scale`` (default 0.25; at least
+Runs ``svgen sample|blend|render --config-preset paper`` (the presets' counts, read from pipeline/config.py at run
+time: today 1,820 variants, 182 base materials x 10; 20,000 blends; 10 views of each at 288², about 218,000 views) with the counts multiplied by ``--scale`` (default 0.25; at least
 one variant per base material and one blend), each stage as its own process, as a user runs them. Per stage it
 records the wall time, the CPU seconds of the stage's process tree (its dask worker processes included: the
 kernel counts every process the stage reaped), the peak resident memory of the whole process tree (sampled every
@@ -28,9 +28,16 @@ from pathlib import Path
 
 from harness import RESULTS, ROOT, parser, write_results
 
-#: the paper's counts (pipeline/config.py's "paper" presets: sample per_preset 36 at 288², blend 20000, render
-#: 10 views at 288²); the base materials are counted from the registry at run time.
-PAPER_PER_PRESET, PAPER_BLENDS, PAPER_VIEWS = 36, 20000, 10
+
+
+def paper_counts() -> tuple[int, int, int]:
+    """The paper presets' (variants per base material, blends, views) from pipeline/config.py, so that the
+    benchmark measures what `--config-preset paper` runs (the base materials are counted from the registry)."""
+    from pipeline.config import BlendConfig, RenderConfig, SampleConfig
+
+    return (SampleConfig.PRESETS["paper"]["per_preset"], BlendConfig.PRESETS["paper"]["count"],
+            RenderConfig.PRESETS["paper"]["views"])
+
 #: how often the process tree's resident memory is sampled (seconds).
 POLL_S = 0.2
 
@@ -104,6 +111,7 @@ def main(argv=None) -> dict:
     from materials.registry import presets
 
     n_presets = len(list(presets()))
+    PAPER_PER_PRESET, PAPER_BLENDS, PAPER_VIEWS = paper_counts()
     per_preset = max(1, round(PAPER_PER_PRESET * a.scale))
     blends = max(1, round(PAPER_BLENDS * a.scale))
     counts = {"sample": n_presets * per_preset, "blend": blends, "render": (n_presets * per_preset + blends) * PAPER_VIEWS}
