@@ -60,10 +60,13 @@ def test_the_shipped_model_is_weights_only_small_and_matches_its_manifest():
     assert path == BUNDLED / "model.pt"
     state = torch.load(path, map_location="cpu", weights_only=True)  # torch's restricted unpickler accepts it
     assert set(state) >= {"config", "model", "step", "provenance", "network_format"} and "optim" not in state
-    assert path.stat().st_size < 8e6
+    # a few MB: the compact network's float32 weights (2.4 M parameters at width 16: 9.5 MB); the wheel's 20 MB
+    # bar is measured by benchmarks/bench_bundled.py
+    assert path.stat().st_size < 12e6
     assert "store_resolved" not in json.dumps(state["provenance"])  # no path of the training machine
     card = (BUNDLED / "MODEL_CARD.md").read_text()
-    for part in ("Placeholder", "## Data", "## Training", "## Licence", "### Held-out materials", "95 % interval",
+    assert ("Placeholder" in card) is bundled_model.manifest()["placeholder"]
+    for part in ("## Data", "## Training", "## Licence", "### Held-out materials", "95 % interval",
                  "### Stress suite", "## Known failure cases", "## Intended use", "### Real-material reference"):
         assert part in card, part
     assert f"{state['step']}" in card and bundled_model.manifest()["steps"] == state["step"]

@@ -24,9 +24,10 @@ from .evaluate import COLUMNS, markdown, run_eval
 log = get_logger(__name__)
 
 #: the commands that reproduce the bundled model (the DVC stage train_bundled runs exactly these).
-RECIPE = ("svtrain fit --config-preset compact --store data/renders.zarr --iterations 300 --seed 0 "
+RECIPE = ("svtrain fit --config-preset compact --store data/renders.zarr --iterations 12000 --seed 0 "
           "--out runs/bundled --resume-if-unchanged",
-          "svtrain bundle runs/bundled --stress-store data/stress_renders.zarr --limit 200")
+          "svtrain bundle runs/bundled --stress-store data/stress_renders.zarr --reference-store "
+          "data/reference/renders.zarr --params params.yaml --limit 400 --final")
 #: views of the training store whose input statistics the card reports (spread evenly over the store).
 FLAG_VIEWS = 400
 LICENCE = ("The weights: CC BY 4.0, like the svgen-generated data they were trained on (every store's dataset card "
