@@ -10,10 +10,13 @@
    relative to the true one, their correlation, and the share of the squared error that is a per-image tilt.
 
     python3 benchmarks/probe_normals.py --checkpoint runs/train    # -> benchmarks/results/normals_probe.json
+    python3 benchmarks/probe_normals.py --checkpoint bundled --store data/renders.zarr \
+        --reference REF/renders.zarr --out benchmarks/results/normals_probe_bundled.json   # + real, by octave
 """
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -51,12 +54,39 @@ def data_signal(src, n: int, seed: int, min_energy: float = 0.005) -> dict:
 
 
 @torch.no_grad()
+def octave_masks(crop: int) -> list[tuple[tuple[int, int], torch.Tensor]]:
+    """Radial frequency bands [2^j, 2^(j+1)) cycles per crop (j = 0 .. log2(crop/2) - 1) as (crop, crop) masks of
+    the 2-D FFT (the mean, 0 cycles, is the tilt and is left out)."""
+    f = torch.fft.fftfreq(crop) * crop
+    radius = (f[:, None] ** 2 + f[None, :] ** 2).sqrt()
+    bands, lo = [], 1
+    while lo < crop // 2:
+        bands.append(((lo, 2 * lo), (radius >= lo) & (radius < 2 * lo)))
+        lo *= 2
+    return bands
+
+
 def prediction_stats(model, src, indices, crop: int) -> dict:
+    """The model's normal detail (the x, y components) against the truth on ``indices`` (centre crops, as eval).
+
+    Besides the totals, per octave of spatial frequency (cycles per crop): the truth's share of detail energy, the
+    predicted energy relative to the true one, their correlation, and the gain that would minimise the squared error
+    of that band (cross / predicted energy: 1 is right-sized; 0 means the band's prediction is no better than none).
+    """
     ds = PairDataset(src, indices, crop, 0, train=False)
     sq = sq_flat = tilt = pg = pp = gg = 0.0
+    bands = octave_masks(crop)
+    band_pg, band_pp, band_gg = (np.zeros(len(bands)) for _ in range(3))
     for k in range(len(ds)):
         img, gt = ds[k]
-        p = model(img[None])[0]
+        with torch.no_grad():
+            p = model(img[None])[0]
+        fp, fg = torch.fft.fft2(p[0:2]), torch.fft.fft2(gt[0:2])
+        cross, ep, eg = (fp * fg.conj()).real, fp.abs() ** 2, fg.abs() ** 2
+        for b, (_, m) in enumerate(bands):
+            band_pg[b] += float(cross[:, m].sum())
+            band_pp[b] += float(ep[:, m].sum())
+            band_gg[b] += float(eg[:, m].sum())
         e = (p[0:3] - gt[0:3]) / 2  # the (n+1)/2 encoding of svtrain eval
         sq += float((e ** 2).mean())
         tilt += float((e.mean((1, 2)) ** 2).mean())
@@ -65,9 +95,13 @@ def prediction_stats(model, src, indices, crop: int) -> dict:
         dp, dg = p[0:2], gt[0:2]
         pg, pp, gg = pg + float((dp * dg).sum()), pp + float((dp * dp).sum()), gg + float((dg * dg).sum())
     n = len(ds)
+    octaves = [{"cycles_per_crop": list(lohi), "true_energy_share": float(band_gg[b] / band_gg.sum()),
+                "energy_ratio": float((band_pp[b] / band_gg[b]) ** 0.5), "correlation":
+                float(band_pg[b] / (band_pp[b] * band_gg[b]) ** 0.5), "best_gain": float(band_pg[b] / band_pp[b])}
+               for b, (lohi, _) in enumerate(bands)]
     return {"views": n, "normal_rmse": (sq / n) ** 0.5, "flat_normal_rmse": (sq_flat / n) ** 0.5,
             "tilt_share_of_mse": tilt / sq, "detail_energy_ratio": (pp / gg) ** 0.5,
-            "detail_correlation": pg / (pp * gg) ** 0.5}
+            "detail_correlation": pg / (pp * gg) ** 0.5, "octaves": octaves}
 
 
 def main(argv=None) -> None:
@@ -76,6 +110,8 @@ def main(argv=None) -> None:
     ap.add_argument("--store", default=None, help="renders store (default: the checkpoint's training store)")
     ap.add_argument("--views", type=int, default=60, help="views drawn for the data check")
     ap.add_argument("--every", type=int, default=4, help="every k-th view of each split for the model check")
+    ap.add_argument("--reference", default=None, help="a reference renders store (`svgen reference OUT`: "
+                    "OUT/renders.zarr, real materials): every view measured as a third split")
     ap.add_argument("--out", default=str(RESULTS / "normals_probe.json"))
     a = ap.parse_args(argv)
     torch.set_num_threads(2)
@@ -89,6 +125,10 @@ def main(argv=None) -> None:
            "data_signal": data_signal(src, a.views, 0),
            "heldout": prediction_stats(model, src, test_idx[::a.every], cfg.data.crop),
            "train": prediction_stats(model, src, train_idx[:: a.every * 20], cfg.data.crop)}
+    if a.reference:
+        ref = open_source(cfg.data.model_copy(update={"store": a.reference}))
+        res["reference"] = prediction_stats(model, ref, np.arange(len(ref)), cfg.data.crop)
+        res["reference_store"] = Path(a.reference).name
     write_results(a.out, res, a.note)
     print(json.dumps(res, indent=2))
 
