@@ -41,7 +41,11 @@ import numpy as np
 from harness import IMG, RESULTS, parser, timed, write_results
 
 #: the stores: name -> (relief RMS slope, relief band centre in cycles per map); relief 0 = the default library.
-STORES = {"base": (0.0, 8.0), "c4": (0.15, 4.0), "c12": (0.15, 12.0), "c40": (0.15, 40.0), "c12s": (0.3, 12.0)}
+STORES = {"base": (0.0, 8.0), "c4": (0.15, 4.0), "c12": (0.15, 12.0), "c40": (0.15, 40.0), "c12s": (0.3, 12.0),
+          # the base variants with decorrelated blends: a different procedural mask per map, so that a blend's
+          # relief and its albedo pattern come from different materials (real materials' normals correlate with
+          # their albedo far less than procedural ones: results/normals_probe_bundled.json)
+          "dmask": (0.0, 8.0, ("--set", "mode=mask", "--set", "mask_per_map=true"))}
 #: store building: variants per preset, blends, views per SVBRDF (render resolution 256, the default).
 PER_PRESET, BLENDS, VIEWS = 4, 200, 4
 #: arms: name -> (factor, store, config overrides, step multiplier, what it tries).
@@ -61,6 +65,8 @@ ARMS = {
     "normal_w300": ("loss", "base", {"optim.normal_l2": 300.0}, 1, "normal term weight 300"),
     "steps_x2": ("steps", "base", {}, 2, "2x the steps"),
     "steps_x4": ("steps", "base", {}, 4, "4x the steps"),
+    "blend_decorrelated": ("data", "dmask", {}, 1, "blends with a different mask per map (relief and albedo "
+                           "from different materials)"),
     "combo": ("combined", "c12s", {"model.base_width": 16, "model.max_width": 128}, 1,
               "relief at 12 cycles/map, RMS slope 0.3 + base width 16 (the two largest single effects)"),
     "combo_w8": ("combined", "c12s", {"optim.normal_l2": 300.0}, 1,
@@ -79,11 +85,12 @@ def store_path(root: Path, name: str) -> Path:
 
 def build_commands(root: Path, name: str) -> list[list[str]]:
     """The svgen commands that make store ``name`` under ``root`` (variants, blends, renders)."""
-    relief, cycles = STORES[name]
+    relief, cycles, *blend_args = STORES[name]
+    blend_args = list(blend_args[0]) if blend_args else []
     v, b, r = (str(root / f"{name}_{k}.zarr") for k in "vbr")
     extra = ["--set", f"relief={relief}", "--set", f"relief_cycles={cycles}"] if relief else []
     return [["svgen", "sample", v, "--per-preset", str(PER_PRESET), *extra],
-            ["svgen", "blend", v, b, "--count", str(BLENDS)],
+            ["svgen", "blend", v, b, "--count", str(BLENDS), *blend_args],
             ["svgen", "render", v, b, r, "--views", str(VIEWS)]]
 
 
