@@ -189,13 +189,13 @@ def open_store(path: str | None, what: str, hint: str):
 
 
 def run(a) -> int:
-    import torch
-
-    from train.checkpoint import load_model
-
     ref_src = open_store(a.reference, "reference", f"--reference, or {REFERENCE_ENV}; `svgen reference` writes one")
     stress_src = open_store(a.stress, "stress", "--stress; `svgen stress` then `svgen render` write one") \
         if a.n_stress > 0 else None
+    import torch  # after the stores are found: a missing one is refused without loading torch
+
+    from train.checkpoint import load_model
+
     torch.set_num_threads(1)
     ident = checkpoint_identity(a.checkpoint)
     model, cfg = load_model(a.checkpoint)

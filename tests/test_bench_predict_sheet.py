@@ -117,7 +117,7 @@ def test_rows_rmse_are_svtrain_evals(inputs, sheet):
     """The same views through `svtrain eval` (same input pipeline): the same per-view normal and re-render RMSEs."""
     _, res = sheet
     code, _, err = svtrain("eval", "--checkpoint", inputs / "run", "--store", inputs / "r.zarr", "--suite", "all",
-                           "--out", inputs / "eval")
+                           "--out", inputs / "eval", "--train-store", inputs / "r.zarr")
     assert code == 0, err
     with open(inputs / "eval" / "per_view.csv") as f:
         per_view = {int(r["view"]): r for r in csv.DictReader(f)}
