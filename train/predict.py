@@ -107,17 +107,27 @@ def _hwc(t: torch.Tensor) -> np.ndarray:
     return t[0].permute(1, 2, 0).numpy()
 
 
-def write_maps(maps: torch.Tensor, out: Path) -> list[Path]:
-    """Write packed maps (1, 10, H, W) as PNG previews and linear EXRs."""
-    written = []
-    n = _hwc(maps[:, NORMAL])
-    written.append(write_png(out / "normal.png", (n + 1.0) * 0.5))
-    written.append(write_exr(out / "normal.exr", n))
-    for name, sl in (("diffuse", DIFFUSE), ("roughness", ROUGHNESS), ("specular", SPECULAR)):
+#: the maps in the order of the previews and output files.
+PREVIEW_MAPS = {"normal": NORMAL, "diffuse": DIFFUSE, "roughness": ROUGHNESS, "specular": SPECULAR}
+
+
+def map_previews(maps: torch.Tensor) -> dict[str, np.ndarray]:
+    """The DESIGN.md display encodings of packed maps (1, 10, H, W): {name: (H, W, C) values in [0, 1]}, normal
+    as (n + 1) / 2 (C = 3), diffuse and specular sRGB-encoded (C = 3), roughness as is (C = 1)."""
+    out = {}
+    for name, sl in PREVIEW_MAPS.items():
         a = _hwc(maps[:, sl])
-        # Roughness is a perceptual parameter, not a colour: written as is, not sRGB-encoded.
-        written.append(write_png(out / f"{name}.png", a if name == "roughness" else srgb_encode(a)))
-        written.append(write_exr(out / f"{name}.exr", a))
+        # Roughness is a perceptual parameter, not a colour: shown as is, not sRGB-encoded.
+        out[name] = (a + 1.0) * 0.5 if name == "normal" else a if name == "roughness" else srgb_encode(a)
+    return out
+
+
+def write_maps(maps: torch.Tensor, out: Path) -> list[Path]:
+    """Write packed maps (1, 10, H, W) as PNG previews (:func:`map_previews`) and linear EXRs."""
+    written = []
+    for name, img in map_previews(maps).items():
+        written.append(write_png(out / f"{name}.png", img))
+        written.append(write_exr(out / f"{name}.exr", _hwc(maps[:, PREVIEW_MAPS[name]])))
     return written
 
 
@@ -275,4 +285,4 @@ def predict(photo: str | Path, checkpoint_path: str | Path | None, out_dir: str 
     return sorted(p for p in Path(out_dir).iterdir() if p.is_file())
 
 
-__all__ = ["predict", "predict_many", "read_photo", "to_network_input", "write_maps", "ImageError"]
+__all__ = ["predict", "predict_many", "read_photo", "to_network_input", "map_previews", "write_maps", "ImageError"]
