@@ -64,7 +64,9 @@ def ground(p: dict, size: int, rng: np.random.Generator):
     wm = smoothstep(0.0, 0.5, wet + 1.2 * p["moisture"] - 1.0) * min(1.0, 20 * p["moisture"])
     col = col * (1 - 0.45 * wm)[..., None]
     r = p["roughness"] - 0.45 * wm - 0.2 * pebm + 0.05 * b2
-    spec = np.clip(0.025 + 0.04 * wm + 0.006 * b2, *PHYSICAL["specular"])  # wet patches shine (was 0.03 + 0.01 wm)
+    # calibrated (#23): dry mineral grains have F0 ~0.04 (quartz, calcite; every reference ground scan 0.040); a
+    # water film (n 1.33) has F0 0.02, so wet patches go toward it: they shine by their lower roughness, not by F0
+    spec = np.clip(0.04 - 0.015 * wm + 0.006 * b2, *PHYSICAL["specular"])
     return finish(h, 1.0, col, spec[..., None], np.clip(r, *PHYSICAL["roughness"]), albedo=PHYSICAL["diffuse"])
 
 
