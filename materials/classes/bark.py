@@ -33,7 +33,9 @@ PARAMS = [
     P("peel", 0.0, 0.0, 1.0, "area where outer bark has peeled off"),
     P("lichen", 0.0, 0.0, 1.0, "area covered by grey-green lichen"),
     P("color_var", 0.12, 0.0, 0.4, "colour variation"),
-    P("roughness", 0.85, 0.5, 1.0, "roughness"),
+    # calibrated (#23): no bark in the reference: its rough dielectrics (rock, ground) average 0.62-0.69;
+    # furrows add up to 0.1
+    P("roughness", 0.72, 0.5, 1.0, "roughness"),
 ]
 
 

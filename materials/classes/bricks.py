@@ -36,6 +36,7 @@ PARAMS = [
     P("tilt", 0.3, 0.0, 1.0, "uneven laying (tilt of each brick)"),
     P("soot", 0.0, 0.0, 1.0, "dark grime patches"),
     P("efflorescence", 0.0, 0.0, 1.0, "white salt bloom near the joints"),
+    # calibrated (#23): reference Bricks075B (materials-cc0): mean roughness 0.52 (p10-p90 0.43-0.60)
     P("roughness", 0.7, 0.35, 1.0, "roughness of the brick face"),
     P("glaze", 0.0, 0.0, 1.0, "glazed face (smoother, slightly higher F0)"),
 ]
@@ -116,7 +117,7 @@ register_preset("bricks/sooty_reclaimed", "bricks", {
 register_preset("bricks/stack_bond_pavers", "bricks", {
     **rgb("color", (0.45, 0.3, 0.24), (-0.12, 0.12)), "bricks_x": (6, 4, 8), "brick_var": (0.2, 0.05, 0.4),
     "joint": (0.006, 0.003, 0.01), "tilt": (0.5, 0.2, 0.9)},
-    fixed={"rows": 12, "stagger": 0.0, "recess": 0.2, "surface": 0.3, "roughness": 0.85, "chips": 0.4})
+    fixed={"rows": 12, "stagger": 0.0, "recess": 0.2, "surface": 0.3, "roughness": 0.72, "chips": 0.4})
 register_preset("bricks/roman_thin", "bricks", {
     **rgb("color", (0.55, 0.42, 0.33), (-0.12, 0.1)), "rows": (22, 16, 28), "brick_var": (0.2, 0.05, 0.4),
     "mix": (0.25, 0.0, 0.5)}, fixed={"bricks_x": 2, "joint": 0.008, "bevel": 0.008, "recess": 0.6, "surface": 0.3})
@@ -124,9 +125,9 @@ register_preset("bricks/concrete_blocks", "bricks", {
     **rgb("color", (0.5, 0.49, 0.47), (-0.12, 0.1)), "surface": (0.8, 0.5, 1.0), "brick_var": (0.06, 0.0, 0.15),
     "rows": (4, 3, 6)},
     fixed={**rgb_fixed("mortar", (0.55, 0.54, 0.52)), "bricks_x": 2, "joint": 0.01, "bevel": 0.008, "recess": 0.3,
-           "mottle": 0.4, "roughness": 0.95, "mix": 0.0, "chips": 0.2})
+           "mottle": 0.4, "roughness": 0.8, "mix": 0.0, "chips": 0.2})
 register_preset("bricks/yellow_fire_brick", "bricks", {
     **rgb("color", (0.72, 0.64, 0.5), (-0.1, 0.08)), "mottle": (0.5, 0.2, 0.8), "soot": (0.4, 0.0, 0.8),
-    "roughness": (0.75, 0.6, 0.9)},
+    "roughness": (0.65, 0.5, 0.8)},
     fixed={**rgb_fixed("color2", (0.55, 0.42, 0.3)), "mix": 0.15, "rows": 12, "bricks_x": 4, "joint": 0.005,
            "recess": 0.15, "surface": 0.3})

@@ -36,7 +36,8 @@ PARAMS = [
     P("trowel", 0.0, 0.0, 1.0, "trowel marks: burnished, glossier sweeps"),
     P("stains", 0.0, 0.0, 1.0, "vertical water streaks and stains"),
     P("marking", 0.0, 0.0, 1.0, "worn painted road marking across the texture"),
-    P("roughness", 0.8, 0.3, 1.0, "roughness"),
+    # calibrated (#23): reference (materials-cc0): asphalt 0.46 and 0.77, plaster 0.79 and 0.89 mean roughness
+    P("roughness", 0.72, 0.3, 1.0, "roughness"),
     P("polish", 0.0, 0.0, 1.0, "ground and polished / sealed finish (smoother, flatter)"),
 ]
 
@@ -106,23 +107,23 @@ def concrete(p: dict, size: int, rng: np.random.Generator):
 
 register_preset("concrete/cast_smooth", "concrete", {
     **rgb("color", (0.6, 0.59, 0.56), (-0.12, 0.1)), "pits": (0.4, 0.1, 0.8), "color_var": (0.15, 0.05, 0.3),
-    "undulation": (0.3, 0.1, 0.6), "roughness": (0.75, 0.6, 0.9)}, fixed={"grit": 0.25})
+    "undulation": (0.3, 0.1, 0.6), "roughness": (0.7, 0.55, 0.85)}, fixed={"grit": 0.25})
 register_preset("concrete/board_formed", "concrete", {
     **rgb("color", (0.55, 0.54, 0.52), (-0.12, 0.1)), "boards": (8, 5, 12), "pits": (0.3, 0.0, 0.6),
-    "stains": (0.2, 0.0, 0.5)}, fixed={"grit": 0.2, "roughness": 0.85})
+    "stains": (0.2, 0.0, 0.5)}, fixed={"grit": 0.2, "roughness": 0.75})
 register_preset("concrete/exposed_aggregate", "concrete", {
     **rgb("color", (0.55, 0.53, 0.5), (-0.1, 0.1)), **rgb("color2", (0.5, 0.44, 0.38), (-0.15, 0.15)),
-    "aggregate": (0.75, 0.5, 1.0), "agg_count": (24, 14, 36)}, fixed={"grit": 0.4, "roughness": 0.88, "pits": 0.1})
+    "aggregate": (0.75, 0.5, 1.0), "agg_count": (24, 14, 36)}, fixed={"grit": 0.4, "roughness": 0.78, "pits": 0.1})
 register_preset("concrete/polished_floor", "concrete", {
     **rgb("color", (0.5, 0.49, 0.47), (-0.12, 0.12)), "polish": (0.8, 0.5, 1.0), "aggregate": (0.3, 0.0, 0.6),
     "color_var": (0.2, 0.05, 0.4), "panels": (2, 1, 4)},
     fixed={**rgb_fixed("color2", (0.35, 0.33, 0.3)), "agg_count": 40, "roughness": 0.6, "cracks": 0.1})
 register_preset("concrete/weathered_stained", "concrete", {
     **rgb("color", (0.45, 0.44, 0.41), (-0.12, 0.1)), "stains": (0.7, 0.4, 1.0), "cracks": (0.3, 0.0, 0.7),
-    "color_var": (0.3, 0.15, 0.5), "pits": (0.4, 0.1, 0.8)}, fixed={"roughness": 0.9, "grit": 0.5, "undulation": 0.5})
+    "color_var": (0.3, 0.15, 0.5), "pits": (0.4, 0.1, 0.8)}, fixed={"roughness": 0.8, "grit": 0.5, "undulation": 0.5})
 register_preset("concrete/cracked_slab", "concrete", {
     **rgb("color", (0.5, 0.49, 0.46), (-0.12, 0.1)), "cracks": (0.8, 0.5, 1.0), "panels": (2, 1, 3),
-    "undulation": (0.6, 0.3, 1.0)}, fixed={"grit": 0.45, "roughness": 0.88, "color_var": 0.25})
+    "undulation": (0.6, 0.3, 1.0)}, fixed={"grit": 0.45, "roughness": 0.78, "color_var": 0.25})
 register_preset("concrete/plaster_smooth", "concrete", {
     **rgb("color", (0.82, 0.81, 0.78), (-0.1, 0.06)), "undulation": (0.4, 0.1, 0.8), "cracks": (0.1, 0.0, 0.4),
     "color_var": (0.05, 0.0, 0.1)}, fixed={"grit": 0.1, "pits": 0.05, "roughness": 0.8})
@@ -131,17 +132,17 @@ register_preset("concrete/venetian_plaster", "concrete", {
     "roughness": (0.45, 0.3, 0.65)}, fixed={"grit": 0.05, "pits": 0.0, "undulation": 0.3, "polish": 0.4})
 register_preset("concrete/stucco_knockdown", "concrete", {
     **rgb("color", (0.78, 0.74, 0.66), (-0.12, 0.08)), "stucco": (0.8, 0.5, 1.0), "grit": (0.4, 0.2, 0.7),
-    "stains": (0.1, 0.0, 0.4)}, fixed={"roughness": 0.92, "pits": 0.0, "color_var": 0.08})
+    "stains": (0.1, 0.0, 0.4)}, fixed={"roughness": 0.85, "pits": 0.0, "color_var": 0.08})
 register_preset("concrete/rough_cast_dash", "concrete", {
     **rgb("color", (0.7, 0.68, 0.64), (-0.12, 0.1)), **rgb("color2", (0.55, 0.5, 0.45), (-0.15, 0.1)),
     "grit": (0.9, 0.6, 1.0), "aggregate": (0.5, 0.3, 0.8)},
-    fixed={"agg_count": 56, "roughness": 0.95, "pits": 0.0, "undulation": 0.5})
+    fixed={"agg_count": 56, "roughness": 0.85, "pits": 0.0, "undulation": 0.5})
 register_preset("concrete/asphalt_road", "concrete", {
     **rgb("color", (0.19, 0.19, 0.19), (-0.05, 0.1)), **rgb("color2", (0.38, 0.37, 0.35), (-0.12, 0.12)),
-    "aggregate": (0.55, 0.3, 0.8), "agg_count": (40, 30, 52), "roughness": (0.8, 0.6, 0.95)},
+    "aggregate": (0.55, 0.3, 0.8), "agg_count": (40, 30, 52), "roughness": (0.65, 0.45, 0.85)},
     fixed={"grit": 0.6, "pits": 0.3, "color_var": 0.1, "undulation": 0.2})
 register_preset("concrete/asphalt_cracked_marked", "concrete", {
     **rgb("color", (0.2, 0.2, 0.2), (-0.08, 0.1)), "cracks": (0.6, 0.3, 1.0), "marking": (0.6, 0.3, 1.0),
     "stains": (0.3, 0.0, 0.6)},
     fixed={**rgb_fixed("color2", (0.36, 0.35, 0.33)), "aggregate": 0.45, "agg_count": 44, "grit": 0.5,
-           "roughness": 0.85, "color_var": 0.15})
+           "roughness": 0.72, "color_var": 0.15})

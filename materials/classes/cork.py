@@ -32,7 +32,9 @@ PARAMS = [
     P("pores", 0.3, 0.0, 1.0, "dark pores (lenticels) in the granules"),
     P("undulation", 0.02, 0.0, 0.06, "RMS slope of the board's soft waves"),
     P("color_var", 0.08, 0.0, 0.3, "large-scale colour mottling"),
-    P("roughness", 0.85, 0.4, 1.0, "roughness of the raw cork"),
+    # calibrated (#23): no cork in the reference: between its paper (0.63) and its fabric (0.81), raw cork being
+    # a matte cellular solid
+    P("roughness", 0.75, 0.4, 1.0, "roughness of the raw cork"),
     P("seal", 0.0, 0.0, 1.0, "wax or varnish: smoother, shinier, relief filled"),
 ]
 
@@ -71,7 +73,7 @@ def cork(p: dict, size: int, rng: np.random.Generator):
 
 register_preset("cork/pinboard", "cork", {
     **rgb("color", (0.74, 0.55, 0.37), (-0.1, 0.08)), "granules": (20, 14, 30), "granule_var": (0.25, 0.1, 0.45),
-    "gaps": (0.5, 0.3, 0.8), "relief": (0.06, 0.03, 0.1), "roughness": (0.88, 0.75, 1.0)})
+    "gaps": (0.5, 0.3, 0.8), "relief": (0.06, 0.03, 0.1), "roughness": (0.78, 0.65, 0.92)})
 register_preset("cork/floor_tile_sealed", "cork", {
     **rgb("color", (0.66, 0.46, 0.28), (-0.12, 0.08)), "seal": (0.8, 0.5, 1.0), "granules": (20, 12, 32),
     "granule_var": (0.3, 0.15, 0.5), "dark_frac": (0.15, 0.0, 0.35)})
@@ -83,7 +85,7 @@ register_preset("cork/coarse_board", "cork", {
     "gaps": (0.8, 0.5, 1.0), "granule_var": (0.35, 0.15, 0.55), "dark_frac": (0.15, 0.0, 0.4)})
 register_preset("cork/expanded_black", "cork", {
     **rgb("color", (0.2, 0.15, 0.12), (-0.06, 0.08)),
-    "granules": (14, 8, 22), "relief": (0.1, 0.05, 0.15), "gaps": (0.8, 0.5, 1.0), "roughness": (0.92, 0.8, 1.0)},
+    "granules": (14, 8, 22), "relief": (0.1, 0.05, 0.15), "gaps": (0.8, 0.5, 1.0), "roughness": (0.82, 0.7, 0.95)},
     fixed={"dark_frac": 0.3, "pores": 0.2, **rgb_fixed("dark", (0.1, 0.08, 0.07))})
 register_preset("cork/natural_slab", "cork", {
     **rgb("color", (0.62, 0.45, 0.3), (-0.12, 0.1)), "stretch": (2.2, 1.5, 3.0), "granules": (10, 8, 16),
@@ -97,7 +99,7 @@ register_preset("cork/fabric_sheet", "cork", {
     "stretch": (1.6, 1.0, 2.5), "pores": (0.5, 0.2, 0.8), "relief": (0.03, 0.01, 0.06)})
 register_preset("cork/underlay_rubberised", "cork", {
     **rgb("color", (0.5, 0.4, 0.3), (-0.1, 0.08)),
-    "dark_frac": (0.35, 0.2, 0.55), "granules": (20, 12, 30), "gaps": (0.6, 0.3, 0.9), "roughness": (0.9, 0.8, 1.0)},
+    "dark_frac": (0.35, 0.2, 0.55), "granules": (20, 12, 30), "gaps": (0.6, 0.3, 0.9), "roughness": (0.8, 0.68, 0.92)},
     fixed=rgb_fixed("dark", (0.12, 0.12, 0.12)))
 register_preset("cork/waxed_dark_floor", "cork", {
     **rgb("color", (0.45, 0.3, 0.18), (-0.1, 0.08)), "seal": (0.6, 0.4, 0.9), "granules": (18, 12, 28),

@@ -25,6 +25,7 @@ PARAMS = [
     P("gap", 0.15, 0.0, 0.5, "open space between threads"),
     P("depth", 0.5, 0.0, 1.0, "thread relief"),
     P("fuzz", 0.3, 0.0, 1.0, "fibre fuzz (fine noise along threads)"),
+    # calibrated (#23): reference denim_fabric (materials-cc0): mean roughness 0.81
     P("roughness", 0.8, 0.4, 1.0, "roughness of the yarn"),
     P("sheen", 0.04, 0.035, 0.06, "F0 of the fibres"),
     P("color_var", 0.1, 0.0, 0.5, "yarn colour unevenness"),
@@ -58,7 +59,7 @@ register_preset("fabric/blue_denim", "fabric", {
     fixed={"pattern": 1, "float_len": 2, **{"weft_r": 0.8, "weft_g": 0.8, "weft_b": 0.75}})
 register_preset("fabric/linen_plain", "fabric", {
     **rgb("warp", (0.8, 0.75, 0.65), (-0.15, 0.1)), **rgb("weft", (0.78, 0.72, 0.62), (-0.15, 0.1)),
-    "threads": (40, 20, 70), "gap": (0.2, 0.05, 0.4), "fuzz": (0.4, 0.1, 0.8), "roughness": (0.85, 0.7, 1.0)},
+    "threads": (40, 20, 70), "gap": (0.2, 0.05, 0.4), "fuzz": (0.4, 0.1, 0.8), "roughness": (0.8, 0.68, 0.92)},
     fixed={"pattern": 0})
 register_preset("fabric/red_satin", "fabric", {
     **rgb("warp", (0.7, 0.05, 0.08), (-0.2, 0.15)),
@@ -71,10 +72,10 @@ register_preset("fabric/tweed_check", "fabric", {
 register_preset("fabric/canvas_stained", "fabric", {
     **rgb("warp", (0.7, 0.65, 0.5), (-0.15, 0.1)),
     "stains": (0.5, 0.2, 1.0), "threads": (24, 16, 40), "gap": (0.1, 0.0, 0.3), "depth": (0.7, 0.4, 1.0),
-    "color_var": (0.15, 0.0, 0.4), "roughness": (0.9, 0.75, 1.0)},
+    "color_var": (0.15, 0.0, 0.4), "roughness": (0.82, 0.7, 0.94)},
     fixed={"pattern": 0, "weft_r": 0.68, "weft_g": 0.62, "weft_b": 0.48})
 # burlap / hessian: coarse open jute plain weave, hairy, very rough
 register_preset("fabric/burlap", "fabric", {
     **rgb("warp", (0.62, 0.5, 0.33), (-0.12, 0.1)), **rgb("weft", (0.6, 0.48, 0.31), (-0.12, 0.1)),
     "threads": (16, 10, 24), "gap": (0.35, 0.2, 0.5), "depth": (0.9, 0.6, 1.0), "fuzz": (0.6, 0.3, 0.9),
-    "color_var": (0.2, 0.05, 0.4)}, fixed={"pattern": 0, "roughness": 0.95})
+    "color_var": (0.2, 0.05, 0.4)}, fixed={"pattern": 0, "roughness": 0.85})

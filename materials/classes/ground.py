@@ -30,7 +30,9 @@ PARAMS = [
     P("moisture", 0.0, 0.0, 1.0, "wet patches (darker, smoother)"),
     P("debris", 0.0, 0.0, 1.0, "twigs and needles"),
     P("color_var", 0.2, 0.0, 0.6, "colour variation"),
-    P("roughness", 0.9, 0.6, 1.0, "roughness of dry soil"),
+    # calibrated (#23): reference ground scans (materials-cc0, benchmarks/results/stats_by_class.json): mean
+    # roughness 0.53-0.85, 0.69 over the five
+    P("roughness", 0.75, 0.45, 1.0, "roughness of dry soil"),
 ]
 
 
@@ -62,14 +64,16 @@ def ground(p: dict, size: int, rng: np.random.Generator):
     wm = smoothstep(0.0, 0.5, wet + 1.2 * p["moisture"] - 1.0) * min(1.0, 20 * p["moisture"])
     col = col * (1 - 0.45 * wm)[..., None]
     r = p["roughness"] - 0.45 * wm - 0.2 * pebm + 0.05 * b2
-    spec = np.clip(0.025 + 0.04 * wm + 0.006 * b2, *PHYSICAL["specular"])  # wet patches shine (was 0.03 + 0.01 wm)
+    # calibrated (#23): dry mineral grains have F0 ~0.04 (quartz, calcite; every reference ground scan 0.040); a
+    # water film (n 1.33) has F0 0.02, so wet patches go toward it: they shine by their lower roughness, not by F0
+    spec = np.clip(0.04 - 0.015 * wm + 0.006 * b2, *PHYSICAL["specular"])
     return finish(h, 1.0, col, spec[..., None], np.clip(r, *PHYSICAL["roughness"]), albedo=PHYSICAL["diffuse"])
 
 
 register_preset("ground/dry_soil", "ground", {
     **rgb("soil", (0.45, 0.33, 0.22), (-0.15, 0.15)),
     "bump": (0.6, 0.3, 1.0), "bump_scale": (0.08, 0.03, 0.2), "color_var": (0.25, 0.1, 0.5), "pebbles": (0.15, 0.0, 0.4),
-    "roughness": (0.92, 0.8, 1.0)})
+    "roughness": (0.78, 0.65, 0.92)})
 register_preset("ground/gravel", "ground", {
     **rgb("pebble", (0.55, 0.53, 0.5), (-0.2, 0.2)), **rgb("soil", (0.3, 0.27, 0.23), (-0.1, 0.1)),
     "pebbles": (0.8, 0.5, 1.0), "pebble_count": (16, 8, 30), "bump": (0.4, 0.1, 0.8)})
@@ -87,5 +91,6 @@ register_preset("ground/forest_floor", "ground", {
     "pebbles": (0.1, 0.0, 0.3)})
 register_preset("ground/wet_mud", "ground", {
     **rgb("soil", (0.28, 0.2, 0.13), (-0.1, 0.1)),
-    "moisture": (0.8, 0.5, 1.0), "bump": (0.7, 0.4, 1.0), "bump_scale": (0.15, 0.05, 0.3), "roughness": (0.85, 0.7, 1.0),
+    "moisture": (0.8, 0.5, 1.0), "bump": (0.7, 0.4, 1.0), "bump_scale": (0.15, 0.05, 0.3),
+    "roughness": (0.72, 0.55, 0.88),
     "pebbles": (0.1, 0.0, 0.3)})

@@ -32,7 +32,9 @@ PARAMS = [
     P("flute_slope", 0.0, 0.0, 0.5, "RMS slope of the flutes (small: a liner over them; large: bare flutes)"),
     P("flecks", 0.0, 0.0, 1.0, "dark inclusions (recycled stock)"),
     P("color_var", 0.06, 0.0, 0.3, "mottling of the colour"),
-    P("roughness", 0.85, 0.3, 1.0, "roughness"),
+    # calibrated (#23): reference Paper001 (materials-cc0): mean roughness 0.63; matte papers a little rougher,
+    # coated ones smoother
+    P("roughness", 0.72, 0.3, 1.0, "roughness"),
     P("coating", 0.0, 0.0, 1.0, "clay coating: smoother, a little more F0, smoother relief"),
 ]
 
@@ -75,10 +77,10 @@ def paper(p: dict, size: int, rng: np.random.Generator):
 
 register_preset("paper/office_white", "paper", {
     **rgb("color", (0.92, 0.92, 0.9), (-0.06, 0.03)), "cockle": (0.03, 0.0, 0.07), "fibres": (0.3, 0.1, 0.6),
-    "roughness": (0.82, 0.7, 0.95)})
+    "roughness": (0.68, 0.55, 0.85)})
 register_preset("paper/kraft_brown", "paper", {
     **rgb("color", (0.68, 0.52, 0.36), (-0.12, 0.08)), "fibres": (0.6, 0.3, 1.0), "flecks": (0.3, 0.0, 0.7),
-    "color_var": (0.08, 0.02, 0.2), "cockle": (0.04, 0.01, 0.08), "roughness": (0.85, 0.7, 1.0)})
+    "color_var": (0.08, 0.02, 0.2), "cockle": (0.04, 0.01, 0.08), "roughness": (0.7, 0.55, 0.88)})
 register_preset("paper/newsprint", "paper", {
     **rgb("color", (0.78, 0.76, 0.7), (-0.1, 0.05)), "fibres": (0.5, 0.2, 0.9), "flecks": (0.4, 0.1, 0.8),
     "color_var": (0.05, 0.01, 0.12), "cockle": (0.05, 0.02, 0.09)})
@@ -90,13 +92,13 @@ register_preset("paper/crumpled_kraft", "paper", {
     "fibres": (0.6, 0.3, 1.0), "flecks": (0.2, 0.0, 0.5)})
 register_preset("paper/watercolour_cold_press", "paper", {
     **rgb("color", (0.93, 0.91, 0.85), (-0.06, 0.04)), "tooth": (0.07, 0.04, 0.12), "tooth_cycles": (20, 14, 32),
-    "cockle": (0.04, 0.0, 0.08), "roughness": (0.92, 0.8, 1.0)})
+    "cockle": (0.04, 0.0, 0.08), "roughness": (0.8, 0.65, 0.95)})
 register_preset("paper/cardboard_liner", "paper", {
     **rgb("color", (0.6, 0.45, 0.3), (-0.12, 0.08)), "flutes": (8, 5, 12), "flute_slope": (0.04, 0.015, 0.08),
     "fibres": (0.5, 0.2, 0.9), "flecks": (0.2, 0.0, 0.5), "color_var": (0.08, 0.02, 0.18)})
 register_preset("paper/corrugated_flutes", "paper", {
     **rgb("color", (0.58, 0.43, 0.28), (-0.12, 0.08)), "flutes": (12, 8, 20), "flute_slope": (0.3, 0.18, 0.45),
-    "fibres": (0.5, 0.2, 0.9), "roughness": (0.9, 0.75, 1.0)})
+    "fibres": (0.5, 0.2, 0.9), "roughness": (0.75, 0.6, 0.9)})
 register_preset("paper/coated_gloss", "paper", {
     **rgb("color", (0.9, 0.9, 0.9), (-0.1, 0.05)), "coating": (0.85, 0.6, 1.0), "roughness": (0.55, 0.4, 0.8),
     "cockle": (0.015, 0.0, 0.04)}, fixed={"fibres": 0.1})
@@ -108,7 +110,7 @@ register_preset("paper/parchment_aged", "paper", {
     "roughness": (0.7, 0.5, 0.85), "fibres": (0.4, 0.1, 0.8)}, fixed={"coating": 0.2})
 register_preset("paper/washi_strands", "paper", {
     **rgb("color", (0.9, 0.88, 0.82), (-0.08, 0.05)), "strands": (0.7, 0.4, 1.0), "fibres": (0.6, 0.3, 1.0),
-    "cockle": (0.04, 0.01, 0.08), "roughness": (0.9, 0.75, 1.0)})
+    "cockle": (0.04, 0.01, 0.08), "roughness": (0.75, 0.6, 0.9)})
 register_preset("paper/black_card", "paper", {
     **rgb("color", (0.22, 0.22, 0.22), (-0.02, 0.1)), "tooth": (0.03, 0.0, 0.06), "fibres": (0.3, 0.1, 0.6),
-    "roughness": (0.8, 0.6, 0.95)})
+    "roughness": (0.7, 0.55, 0.85)})

@@ -40,7 +40,8 @@ PARAMS = [
     P("flow", 0.0, 0.0, 1.0, "ropy flow folds (pahoehoe lava)"),
     P("lichen", 0.0, 0.0, 1.0, "lichen patches"),
     P("wet", 0.0, 0.0, 1.0, "wetness (darker, glossier)"),
-    P("roughness", 0.75, 0.3, 1.0, "roughness of the dry rock"),
+    # calibrated (#23): reference rock scans (materials-cc0): Rock029 0.76, Rock035 0.69, Lava002 0.41 mean roughness
+    P("roughness", 0.68, 0.3, 1.0, "roughness of the dry rock"),
 ]
 
 
@@ -97,15 +98,15 @@ def rock(p: dict, size: int, rng: np.random.Generator):
 register_preset("rock/granite_cliff", "rock", {
     **rgb("color", (0.5, 0.47, 0.45), (-0.15, 0.12)), **rgb("color2", (0.32, 0.28, 0.28), (-0.1, 0.1)),
     "speckle": (0.6, 0.3, 1.0), "crags": (0.7, 0.4, 1.0), "cracks": (0.3, 0.0, 0.7), "crag_scale": (0.3, 0.15, 0.5)},
-    fixed={"roughness": 0.75})
+    fixed={"roughness": 0.7})
 register_preset("rock/sandstone_strata", "rock", {
     **rgb("color", (0.66, 0.5, 0.36), (-0.15, 0.1)), **rgb("color2", (0.55, 0.36, 0.24), (-0.1, 0.1)),
     "strata": (0.8, 0.5, 1.0), "strata_count": (8, 4, 14), "crags": (0.3, 0.1, 0.6)},
-    fixed={"roughness": 0.88, "color_var": 0.2})
+    fixed={"roughness": 0.76, "color_var": 0.2})
 register_preset("rock/limestone_face", "rock", {
     **rgb("color", (0.68, 0.66, 0.6), (-0.15, 0.1)), "crags": (0.6, 0.3, 0.9), "cracks": (0.4, 0.1, 0.8),
     "lichen": (0.2, 0.0, 0.5), "crag_scale": (0.35, 0.2, 0.6)},
-    fixed={**rgb_fixed("color2", (0.5, 0.49, 0.46)), "roughness": 0.8, "strata": 0.3})
+    fixed={**rgb_fixed("color2", (0.5, 0.49, 0.46)), "roughness": 0.72, "strata": 0.3})
 register_preset("rock/slate_outcrop", "rock", {
     **rgb("color", (0.25, 0.26, 0.28), (-0.08, 0.1)), "strata": (0.6, 0.3, 1.0), "strata_count": (14, 8, 20),
     "cracks": (0.6, 0.3, 1.0)},
@@ -121,11 +122,11 @@ register_preset("rock/lava_pahoehoe", "rock", {
 register_preset("rock/gravel_fine", "rock", {
     **rgb("color", (0.5, 0.47, 0.43), (-0.15, 0.12)), **rgb("color2", (0.35, 0.3, 0.27), (-0.1, 0.1)),
     "stones": (18, 14, 24), "color_var": (0.35, 0.2, 0.5), "stone_gap": (0.08, 0.02, 0.15)},
-    fixed={"dome": 0.8, "crags": 0.2, "roughness": 0.85})
+    fixed={"dome": 0.8, "crags": 0.2, "roughness": 0.74})
 register_preset("rock/gravel_coarse", "rock", {
     **rgb("color", (0.45, 0.43, 0.4), (-0.15, 0.12)), **rgb("color2", (0.3, 0.27, 0.25), (-0.1, 0.1)),
     "stones": (14, 10, 20), "crags": (0.5, 0.2, 0.8), "color_var": (0.35, 0.2, 0.5)},
-    fixed={"dome": 0.6, "stone_gap": 0.06, "roughness": 0.85, "crag_scale": 0.1})
+    fixed={"dome": 0.6, "stone_gap": 0.06, "roughness": 0.74, "crag_scale": 0.1})
 register_preset("rock/river_pebbles_wet", "rock", {
     **rgb("color", (0.42, 0.38, 0.34), (-0.12, 0.12)), **rgb("color2", (0.22, 0.22, 0.24), (-0.1, 0.1)),
     "stones": (12, 8, 18), "wet": (0.6, 0.3, 1.0), "dome": (0.9, 0.6, 1.0)},
@@ -141,4 +142,4 @@ register_preset("rock/granite_setts", "rock", {
     fixed={**rgb_fixed("color2", (0.3, 0.29, 0.3)), "dome": 0.4, "crags": 0.3, "roughness": 0.7})
 register_preset("rock/mossy_boulder", "rock", {
     **rgb("color", (0.42, 0.41, 0.38), (-0.12, 0.1)), "lichen": (0.6, 0.3, 1.0), "crags": (0.5, 0.2, 0.8),
-    "wet": (0.2, 0.0, 0.5)}, fixed={**rgb_fixed("color2", (0.3, 0.3, 0.28)), "roughness": 0.85, "crag_scale": 0.4})
+    "wet": (0.2, 0.0, 0.5)}, fixed={**rgb_fixed("color2", (0.3, 0.3, 0.28)), "roughness": 0.76, "crag_scale": 0.4})

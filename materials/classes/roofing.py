@@ -38,6 +38,7 @@ PARAMS = [
     P("grain", 0.0, 0.0, 1.0, "grooves down the slope (split slate cleavage, wood shakes)"),
     P("ragged", 0.0, 0.0, 1.0, "irregular tile outlines (hand-split slate, shakes)"),
     P("moss", 0.0, 0.0, 1.0, "moss and lichen along the joints"),
+    # calibrated (#23): reference roof_slates_02 (materials-cc0): mean roughness 0.85
     P("roughness", 0.75, 0.3, 1.0, "roughness of the tile face"),
     P("glaze", 0.0, 0.0, 1.0, "glazed tiles (smoother, slightly higher F0)"),
 ]
@@ -124,7 +125,7 @@ register_preset("roofing/asphalt_shingles", "roofing", {
     **rgb("color", (0.25, 0.24, 0.23), (-0.1, 0.12)), "tile_var": (0.15, 0.05, 0.3), "keyway": (0.008, 0.004, 0.014),
     "rows": (12, 8, 16), "surface": (0.7, 0.4, 1.0)},
     fixed={**rgb_fixed("color2", (0.18, 0.17, 0.16)), "tiles_x": 4, "thickness": 0.3, "mix": 0.4,
-           "roughness": 0.92})
+           "roughness": 0.85})
 register_preset("roofing/cedar_shakes", "roofing", {
     **rgb("color", (0.5, 0.38, 0.27), (-0.15, 0.1)), "grain": (0.85, 0.5, 1.0), "ragged": (0.5, 0.2, 0.9),
     "tiles_x": (10, 7, 14), "tile_var": (0.2, 0.08, 0.35)},
@@ -140,7 +141,7 @@ register_preset("roofing/concrete_tiles", "roofing", {
     **rgb("color", (0.4, 0.38, 0.36), (-0.12, 0.12)), "profile": (0.35, 0.1, 0.6), "surface": (0.6, 0.3, 0.9),
     "moss": (0.15, 0.0, 0.4)},
     fixed={**rgb_fixed("color2", (0.32, 0.3, 0.29)), "tiles_x": 5, "rows": 7, "stagger": 0.0, "keyway": 0.003,
-           "thickness": 0.8, "roughness": 0.9})
+           "thickness": 0.8, "roughness": 0.82})
 register_preset("roofing/spanish_s_tile", "roofing", {
     **rgb("color", (0.6, 0.4, 0.28), (-0.12, 0.08)), **rgb("color2", (0.5, 0.32, 0.24), (-0.1, 0.1)),
     "mix": (0.5, 0.2, 0.8), "tiles_x": (5, 3, 7)},

@@ -34,6 +34,8 @@ PARAMS = [
     P("wear", 0.0, 0.0, 1.0, "polished raised tops (smoother, a little lighter)"),
     P("dust", 0.0, 0.0, 1.0, "grey dust in the grooves"),
     P("color_var", 0.05, 0.0, 0.3, "colour mottling"),
+    # calibrated (#23): no rubber in the reference: moulded and granular rubber floorings are matte, not chalky
+    # (presets 0.55-0.8)
     P("roughness", 0.75, 0.45, 1.0, "roughness"),
 ]
 
@@ -112,11 +114,11 @@ register_preset("rubber/diamond_tread_mat", "rubber", {
     "stipple": (0.02, 0.0, 0.05), "wear": (0.2, 0.0, 0.6)}, fixed={"pattern": 3})
 register_preset("rubber/gym_floor_epdm", "rubber", {
     **rgb("color", (0.12, 0.12, 0.12), (-0.04, 0.06)), **rgb("fleck", (0.55, 0.55, 0.58), (-0.2, 0.15)),
-    "flecks": (0.15, 0.05, 0.3), "stipple": (0.06, 0.03, 0.1), "roughness": (0.85, 0.7, 1.0)})
+    "flecks": (0.15, 0.05, 0.3), "stipple": (0.06, 0.03, 0.1), "roughness": (0.78, 0.65, 0.9)})
 register_preset("rubber/playground_granules_red", "rubber", {
     **rgb("color", (0.5, 0.18, 0.13), (-0.1, 0.1)),
     "flecks": (0.1, 0.0, 0.25), "stipple": (0.09, 0.05, 0.12), "color_var": (0.1, 0.03, 0.2),
-    "roughness": (0.9, 0.8, 1.0)}, fixed=rgb_fixed("fleck", (0.2, 0.2, 0.2)))
+    "roughness": (0.8, 0.68, 0.92)}, fixed=rgb_fixed("fleck", (0.2, 0.2, 0.2)))
 register_preset("rubber/yoga_mat_purple", "rubber", {
     **rgb("color", (0.42, 0.3, 0.5), (-0.12, 0.1)), "stipple": (0.04, 0.02, 0.07), "count": (16, 12, 24),
     "depth": (0.04, 0.0, 0.08), "roughness": (0.7, 0.55, 0.85)}, fixed={"pattern": 2})

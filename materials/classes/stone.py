@@ -92,7 +92,8 @@ register_preset("stone/slate", "stone", {
     "layers": (0.8, 0.4, 1.0), "bump": (0.5, 0.2, 0.9), "bump_scale": (0.15, 0.05, 0.3), "roughness": (0.6, 0.4, 0.85)})
 register_preset("stone/sandstone", "stone", {
     **rgb("color", (0.78, 0.62, 0.42), (-0.15, 0.1)),
-    "bump": (0.7, 0.4, 1.0), "bump_scale": (0.05, 0.02, 0.15), "layers": (0.4, 0.0, 0.8), "roughness": (0.9, 0.75, 1.0),
+    "bump": (0.7, 0.4, 1.0), "bump_scale": (0.05, 0.02, 0.15), "layers": (0.4, 0.0, 0.8),
+    "roughness": (0.8, 0.65, 0.95),
     "speckle": (0.2, 0.0, 0.5)}, fixed=rgb_fixed("vein", (0.6, 0.45, 0.3)))
 register_preset("stone/flagstones", "stone", {
     **rgb("color", (0.5, 0.45, 0.38), (-0.15, 0.15)),
@@ -101,4 +102,5 @@ register_preset("stone/flagstones", "stone", {
 # bush-hammered granite: the face dressed with a pointed hammer, pitted at mid scales, matte
 register_preset("stone/bush_hammered", "stone", {
     **rgb("color", (0.6, 0.58, 0.56), (-0.15, 0.12)), **rgb("vein", (0.15, 0.15, 0.15), (-0.1, 0.35)),
-    "bump": (0.9, 0.6, 1.0), "bump_scale": (0.04, 0.025, 0.07), "speckle": (0.6, 0.3, 0.9), "roughness": (0.85, 0.7, 1.0)})
+    "bump": (0.9, 0.6, 1.0), "bump_scale": (0.04, 0.025, 0.07), "speckle": (0.6, 0.3, 0.9),
+    "roughness": (0.78, 0.65, 0.92)})
