@@ -41,7 +41,10 @@ def store_hashes(path: Path) -> dict[str, str]:
     out = {}
     for name, arr in sorted(g.arrays()):
         a = arr[:]
-        out[name] = f"{a.dtype}{list(a.shape)}:" + hashlib.sha256(a.tobytes()).hexdigest()
+        # string arrays (preset and category names) by their values: an object or variable-width string array's
+        # buffer holds pointers, which differ from run to run
+        raw = "\n".join(map(str, a.ravel().tolist())).encode() if a.dtype.kind in "OTU" else a.tobytes()
+        out[name] = f"{a.dtype}{list(a.shape)}:" + hashlib.sha256(raw).hexdigest()
     return out
 
 
