@@ -11,6 +11,11 @@ Writes key "statistics" of benchmarks/results/realism.json (other keys of that f
 and the chart docs/img/chart_realism.png. A missing reference folder is refused in one line (exit 2).
 
 Usage: python3 benchmarks/bench_realism.py [REFERENCE_DIR] [--per-preset 4] [--size 256] [--splits 8] [--seed 0]
+
+A library other than the default (``--set KEY=VALUE``, svgen sample's keys) is written under its own key
+(``--key``), so the default's figures stay; e.g. the fine grain of #23:
+
+    python3 benchmarks/bench_realism.py --set relief=0.06 --set relief_cycles=64 --key statistics_fine_grain
 """
 from __future__ import annotations
 
@@ -34,9 +39,15 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, default=256, help="map side of the library and of the imported reference")
     ap.add_argument("--splits", type=int, default=8, help="halvings of the reference averaged into the noise floor")
     ap.add_argument("--seed", type=int, default=0, help="seed of the halvings")
+    ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                    help="svgen sample setting of the library (repeatable; as `svgen sample --set`)")
+    ap.add_argument("--key", default="statistics", help="key of the results file written [default: statistics]")
     ap.add_argument("--out", default=str(RESULTS / "realism.json"))
-    ap.add_argument("--chart", default=str(IMG / "chart_realism.png"))
+    ap.add_argument("--chart", default=None, help="chart path [default: docs/img/chart_realism.png for the "
+                    "default key, none otherwise]")
     a = ap.parse_args(argv)
+    if a.chart is None and a.key == "statistics":
+        a.chart = str(IMG / "chart_realism.png")
     ref_dir = Path(a.reference)
     if not ref_dir.is_dir():
         print(f"bench_realism: no reference folder at {ref_dir} (pass the folder of real materials)", file=sys.stderr)
@@ -48,14 +59,21 @@ def main(argv=None) -> int:
     from pipeline.stats.compare import compare, table
     from pipeline.stats.profile import profile
     from pipeline.sample import run_sample
-    from svcore.config import build
+    from svcore.config import build, parse_sets
+    from svcore.errors import SvgenError
+
+    try:
+        overrides = parse_sets(a.sets)
+        lib_cfg = build(SampleConfig, per_preset=a.per_preset, size=a.size, seed=0, **overrides)
+    except SvgenError as e:
+        print(f"bench_realism: {e}", file=sys.stderr)
+        return 2
 
     tmp = Path(tempfile.mkdtemp(prefix="bench-realism-"))
     try:
         ref_store, mats = run_import(tmp / "reference.zarr", build(ImportConfig, sources=(str(ref_dir),),
                                                                    size=a.size), workers=0)
-        lib = run_sample(tmp / "library.zarr", build(SampleConfig, per_preset=a.per_preset, size=a.size, seed=0),
-                         workers=0)
+        lib = run_sample(tmp / "library.zarr", lib_cfg, workers=0)
         t = timed(lambda: compare([profile(lib, name=LIBRARY)], profile(ref_store, name=ref_dir.name),
                                   a.splits, a.seed))
     finally:
@@ -64,12 +82,14 @@ def main(argv=None) -> int:
     res = {"reference_folder": os.path.relpath(ref_dir.resolve(), ROOT),
            "reference_import": {"size": a.size, "window": "whole tile, centre-cropped to a square and area-averaged",
                                 "materials": len(mats)},
-           "library": {"config": "default", "per_preset": a.per_preset, "size": a.size, "seed": 0},
+           "library": {"config": "default", "per_preset": a.per_preset, "size": a.size, "seed": 0,
+                       **({"settings": overrides} if overrides else {})},
            "stats_wall_s": round(t.wall_s, 1), "report": report}
-    update_results(a.out, "statistics", res, note=a.note)
-    chart(report, a.chart)  # benchmarks/charts_realism.py redraws it from the JSON
+    update_results(a.out, a.key, res, note=a.note)
+    if a.chart:
+        chart(report, a.chart)  # benchmarks/charts_realism.py redraws it from the JSON
     print(table(report))
-    print(f"wrote {a.out} (key statistics) and {a.chart}")
+    print(f"wrote {a.out} (key {a.key})" + (f" and {a.chart}" if a.chart else ""))
     return 0
 
 

@@ -24,6 +24,9 @@ its 95 % bootstrap interval over materials; the training run (steps, store size,
     python3 benchmarks/bench_sim2real.py --steps 8760         # the README's budget_30min step count
     python3 benchmarks/bench_sim2real.py --budget-s 1800      # steps from the quiet calibration of 2 cores
     python3 benchmarks/bench_sim2real.py --checkpoint runs/train   # a run trained elsewhere (e.g. dvc repro)
+    python3 benchmarks/bench_sim2real.py --steps 2770 --heldout-store OLD/renders.zarr   # + another library's held-out
+    python3 benchmarks/bench_sim2real.py --steps 2770 --sample-set flat_share=0 --sample-set swap_share=0   # before #22
+    python3 benchmarks/bench_sim2real.py --steps 2770 --train-set optim.normal_late_loss=rmse   # a training change
 """
 from __future__ import annotations
 
@@ -87,6 +90,11 @@ def steps_of(a, params: dict) -> tuple[int, str]:
     return int(params["train"]["optim"]["iterations"]), "params.yaml train.optim.iterations (the dvc repro model)"
 
 
+def as_sets(items: list[str]) -> list[str]:
+    """``["k=v", ...]`` -> ``["--set", "k=v", ...]`` (svgen/svtrain's repeatable ``--set``)."""
+    return [x for kv in items for x in ("--set", kv)]
+
+
 def train(a, work: Path, log: list) -> tuple[Path, dict]:
     """(run directory, what was trained): the default store and a fit of the chosen steps, each reused if done."""
     import yaml
@@ -97,21 +105,23 @@ def train(a, work: Path, log: list) -> tuple[Path, dict]:
     d = work / "train"
     d.mkdir(parents=True, exist_ok=True)
     v, b, r = d / "variants.zarr", d / "blends.zarr", d / "renders.zarr"
-    for out, cmd in ((v, ["svgen", "sample", str(v)]), (b, ["svgen", "blend", str(v), str(b)]),
+    sets, train_sets = as_sets(a.sample_set), as_sets(a.train_set)
+    for out, cmd in ((v, ["svgen", "sample", str(v), *sets]), (b, ["svgen", "blend", str(v), str(b)]),
                      (r, ["svgen", "render", str(v), str(b), str(r)])):
         if not _done(out):
             sh([*cmd, "--params", params_file], log)
     run = work / f"run_{steps}"
     if not (run / "model.pt").is_file():
         sh(["svtrain", "fit", "--params", params_file, "--store", str(r), "--out", str(run),
-            "--iterations", str(steps)], log)
+            "--iterations", str(steps), *train_sets], log)
     from pipeline.render.store import RendersReader
 
     metrics = json.loads((run / "metrics.json").read_text())
     return run, {"steps": steps, "steps_from": how, "store_views": len(RendersReader(r)),
-                 "store": "the default params.yaml store (svgen sample/blend/render --params params.yaml)",
-                 "model": params["train"]["model"], "fit_metrics": {k: metrics[k] for k in metrics
-                                                                    if isinstance(metrics[k], (int, float))}}
+                 "store": "the default params.yaml store (svgen sample/blend/render --params params.yaml)"
+                          + (f", sample with {' '.join(sets)}" if sets else ""),
+                 "train_sets": list(a.train_set), "model": params["train"]["model"],
+                 "fit_metrics": {k: metrics[k] for k in metrics if isinstance(metrics[k], (int, float))}}
 
 
 def summarise(res: dict) -> dict:
@@ -141,6 +151,14 @@ def main(argv=None) -> None:
     ap.add_argument("--work", default=str(ROOT / "runs" / "sim2real"), help="scratch folder (stores, runs)")
     ap.add_argument("--out", default=str(REALISM), help="results JSON (read-modify-write of key sim_to_real)")
     ap.add_argument("--tables", default=str(TABLES), help="folder of the eval.md tables")
+    ap.add_argument("--sample-set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a sample setting for the training store (svgen sample --set; repeatable), e.g. the "
+                         "library before a change as the control of an equal-steps comparison")
+    ap.add_argument("--train-set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a training setting (svtrain fit --set; repeatable), e.g. optim.normal_late_loss=rmse")
+    ap.add_argument("--heldout-store", default=None,
+                    help="also evaluate the held-out split of this renders store (scales.heldout_other): the same "
+                         "views as a run trained on another library (e.g. data/renders.zarr of the library before)")
     a = ap.parse_args(argv)
     ref = Path(a.reference)
     if not ref.is_dir():
@@ -191,6 +209,12 @@ def main(argv=None) -> None:
     scales["heldout"] = {"crop": None, **summarise(json.loads((ev / "eval.json").read_text()))}
     (tables / "heldout.md").write_text(f"# Held-out: {trained.get('steps')} steps\n\n{trained.get('steps_from')}; "
                                        f"the training store's held-out split.\n\n{(ev / 'eval.md').read_text()}")
+    if a.heldout_store:  # the held-out split of another store: materials this run never saw (split by preset)
+        ev = work / f"eval_{run.stem}_heldout_other"
+        sh(["svtrain", "eval", "--checkpoint", str(run), "--store", a.heldout_store, "--suite", "heldout",
+            "--out", str(ev)], log)
+        scales["heldout_other"] = {"crop": None, "store": _rel(str(Path(a.heldout_store).resolve())),
+                                   **summarise(json.loads((ev / "eval.json").read_text()))}
     n_ref = sum(1 for _ in ref.iterdir() if _.is_dir())
     block = {"benchmark": "bench_sim2real", "reference": {"folder": ref.name, "material_folders": n_ref},
              "training": trained,

@@ -7,7 +7,8 @@ at ``--size``²; each material's category is read from the folder's README table
 since the folders carry no metadata.json. Both go through :func:`pipeline.stats.profile.profile`, so the values
 are exactly the pixel samples (64² grid per material) that ``svgen stats --reference`` compares.
 
-Per statistic (roughness, specular F0 luminance) and per class / category: materials, mean, 10/25/50/75/90 %
+Per statistic (roughness, specular F0 luminance; and the per-material CV of specular Y and of the slope magnitude, one
+value per material) and per class / category: materials, mean, 10/25/50/75/90 %
 quantiles of the pooled pixel values; per class also
 
 * ``w_alone``: 1-D Wasserstein distance from the class's pixels alone to the whole reference;
@@ -34,7 +35,11 @@ from scipy.stats import wasserstein_distance
 from harness import RESULTS, ROOT, parser, write_results
 
 DEFAULT_REFERENCE = ROOT.parent / "shared" / "materials-cc0"
-STATS = ("roughness", "specular_f0")
+#: pixel statistics (pooled pixel values) and per-material ones (one value per material: svgen stats compares those
+#: distributions, e.g. how much specular varies within a material)
+PIXEL_STATS = ("roughness", "specular_f0")
+MATERIAL_STATS = ("cv_specular", "cv_relief")
+STATS = PIXEL_STATS + MATERIAL_STATS
 QUANTILES = (10, 25, 50, 75, 90)
 
 
@@ -63,7 +68,7 @@ def by_group(pixels: dict[str, np.ndarray], groups: list[str], ref: dict[str, np
     """statistic -> group -> summary (plus, given the reference's pixels, the Wasserstein columns).
 
     Args:
-        pixels: statistic -> (M, P) pixel values of M materials.
+        pixels: statistic -> (M, P) pixel values of M materials (P = 1 for a per-material statistic).
         groups: (M,) group (class or category) of every material.
         ref: statistic -> (R, P) reference pixels, or None for the reference itself.
     """
@@ -82,6 +87,12 @@ def by_group(pixels: dict[str, np.ndarray], groups: list[str], ref: dict[str, np
         if full is not None:
             out[s]["_all"] = {"materials": len(groups), **summary(pixels[s]), "w_alone": round(float(full), 4)}
     return out
+
+
+def values(p) -> dict[str, np.ndarray]:
+    """statistic -> (M, P) values of a profile: pixel statistics as sampled, per-material ones as (M, 1)."""
+    return {**{s: p.pixels[s] for s in PIXEL_STATS},
+            **{s: np.asarray(p.per_material[s])[:, None] for s in MATERIAL_STATS}}
 
 
 def table(res: dict) -> str:
@@ -127,6 +138,7 @@ def main(argv=None) -> int:
         lib = run_sample(tmp / "library.zarr", build(SampleConfig, per_preset=a.per_preset, size=a.size, seed=0),
                          workers=0)
         rp, lp = profile(ref_store), profile(lib)
+        rpix, lpix = (values(p) for p in (rp, lp))
         rs, ls = SVBRDFStore(ref_store), SVBRDFStore(lib)
         ref_names = [rs.source(i)["presets"][0].split("/", 1)[1] for i in range(len(rs))]
         presets = [ls.source(i)["presets"][0] for i in range(len(ls))]
@@ -137,16 +149,16 @@ def main(argv=None) -> int:
     per_preset = {}
     for p in sorted(set(presets)):
         i = [k for k, q in enumerate(presets) if q == p]
-        per_preset[p] = {s: round(float(lp.pixels[s][i].mean()), 3) for s in STATS}
+        per_preset[p] = {s: round(float(lpix[s][i].mean()), 3) for s in STATS}
     res = {"reference_folder": os.path.relpath(ref_dir.resolve(), ROOT),
            "library_config": {"config": "default", "per_preset": a.per_preset, "size": a.size, "seed": 0},
            "reference_materials": dict(zip(ref_names, ref_cats)),
            "columns": {"w_alone": "Wasserstein-1 from the class's pixels alone to the whole reference",
                        "w_without_delta": "the library's distance to the reference minus its distance without "
                                           "the class (positive: the class pulls the library away)"}}
-    res["library"] = by_group(lp.pixels, classes, rp.pixels)
-    res["reference"] = by_group(rp.pixels, ref_cats)
-    res["reference"] = {s: {**res["reference"][s], "_all": {"materials": len(ref_cats), **summary(rp.pixels[s])}}
+    res["library"] = by_group(lpix, classes, rpix)
+    res["reference"] = by_group(rpix, ref_cats)
+    res["reference"] = {s: {**res["reference"][s], "_all": {"materials": len(ref_cats), **summary(rpix[s])}}
                         for s in STATS}
     res["per_preset_mean"] = per_preset
     write_results(a.out, res, note=a.note)

@@ -10,7 +10,7 @@ from functools import lru_cache
 
 import scipy.fft as sfft
 
-from .noise import F32, Tex, _freqs, height_slopes, white_spectrum
+from .noise import F32, Tex, _freqs, fbm, height_slopes, white_spectrum
 
 
 def slope_rms(h: np.ndarray) -> float:
@@ -68,3 +68,33 @@ def bands(tex: Tex, mid_cycles: float, mid_slope: float, fine_slope: float, fine
 def dome(d: np.ndarray, radius: float) -> np.ndarray:
     """A round bump profile sqrt(1 - (d / radius)^2), 0 outside ``radius``; d (H, W) a distance. float32."""
     return np.sqrt(np.clip(1.0 - (d / max(radius, 1e-6)) ** 2, 0.0, 1.0)).astype(F32)
+
+
+#: the distribution of :func:`independent_relief` (issue #22: relief that owes nothing to the albedo):
+#: largest feature 1/16 .. 1/2 texture width (log-uniform), spectral slope of the height power BETA (slope power per
+#: octave grows with frequency below 4, falls above), anisotropic (grooves, brushing, strata) with probability
+#: ANISO_P, RMS slope log-uniform in SLOPE (the reference's materials span ~0.02 for polished stone to ~0.3 for rock).
+INDEPENDENT_SCALE = (1 / 16, 1 / 2)
+INDEPENDENT_BETA = (3.0, 4.5)
+INDEPENDENT_ANISO_P, INDEPENDENT_ANISO = 0.3, (1.5, 4.0)
+INDEPENDENT_SLOPE = (0.03, 0.3)
+
+
+def independent_relief(size: int, seed: int) -> np.ndarray:
+    """A random height field drawn from its own seed, unrelated to any material's colour: an fBm surface whose
+    feature size, spectral slope, anisotropy and RMS slope are drawn from the ``INDEPENDENT_*`` ranges above.
+
+    Returns:
+        (size, size) float32 height in texture widths.
+    """
+    rng = np.random.default_rng(seed)
+    lo, hi = np.log(INDEPENDENT_SCALE)
+    scale = float(np.exp(rng.uniform(lo, hi)))
+    beta = float(rng.uniform(*INDEPENDENT_BETA))
+    aniso, angle = 1.0, 0.0
+    if rng.random() < INDEPENDENT_ANISO_P:
+        aniso, angle = float(rng.uniform(*INDEPENDENT_ANISO)), float(rng.uniform(0.0, np.pi))
+    lo, hi = np.log(INDEPENDENT_SLOPE)
+    rms = float(np.exp(rng.uniform(lo, hi)))
+    h = fbm(size, int(rng.integers(0, 2**63 - 1)), scale, beta, aniso=aniso, angle=angle)
+    return at_slope(h, rms)

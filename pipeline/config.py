@@ -57,23 +57,46 @@ class SampleConfig(StageConfig):
     and the generic table of pipeline/importer/perturb.py."""
     only_from: bool = False
     """With imported stores: write only the imported materials' variants, no presets'."""
-    relief: float = Field(0.0, ge=0, le=2)
-    """Extra relief on every variant: RMS slope of a height field added to its own (0: none; the learn-shape
-    probes of benchmarks/bench_shape.py). Normals come from the summed heights' slopes."""
-    relief_cycles: float = Field(8.0, ge=1, le=128)
+    relief: float = Field(0.06, ge=0, le=2)
+    """Extra relief on every variant: RMS slope of a band-limited height field added to its own (0: none).
+    The default is fine grain, 0.06 at 64 cycles per map (4-pixel periods at 256²): real materials put most of
+    their slope power in the finest octave, the presets at mid scales, and with the grain the library's slope
+    octave shares come to the reference's noise floor (4.3x -> 1.04x, benchmarks/results/realism.json); a
+    model trained on it is better on real materials in diffuse, roughness and specular at 2,770 steps and no
+    worse in any column at 5,540 (effects_fine_grain*.json, #23). Presets' variants only, after the relief mode:
+    an imported material's variants keep its measured relief. Normals come from the summed heights' slopes."""
+    relief_cycles: float = Field(64.0, ge=1, le=128)
     """Centre of the extra relief's band, cycles per map width (about one octave wide)."""
+    flat_share: float = Field(0.35, ge=0, le=1)
+    """Share of variants made with flat normals, colour, specular and roughness kept: the printed, polished or
+    painted-over counterpart of a textured material, so that colour texture alone never means relief (#22;
+    benchmarks/results/shape_finetune.json: with swap_share, real normals move toward the flat map's error).
+    Presets' variants only: an imported material's variants keep its measured relief."""
+    swap_share: float = Field(0.35, ge=0, le=1)
+    """Share of variants whose relief is replaced by an independent random height field
+    (materials.heights.independent_relief), so that relief and colour texture vary independently (#22)."""
 
     #: the keys of imported materials; a store without imported stores records the config without them, so that
     #: it is exactly what a plain `svgen sample` writes (the default DVC pipeline passes an empty --from-dir).
     IMPORT_KEYS: ClassVar[tuple[str, ...]] = ("from_stores", "from_dir", "per_material", "only_from")
     #: the extra-relief keys: a store without extra relief records the config without them (same bytes as before).
     RELIEF_KEYS: ClassVar[tuple[str, ...]] = ("relief", "relief_cycles")
+    #: the relief-mode keys (flat and independent relief), likewise left out of the recorded config at 0.
+    MODE_KEYS: ClassVar[tuple[str, ...]] = ("flat_share", "swap_share")
 
     @model_validator(mode="after")
     def _only_from_needs_stores(self) -> "SampleConfig":
         if self.only_from and not self.from_stores and self.from_dir is None:
             raise ValueError("only_from needs imported stores (from_stores or from_dir)")
+        if self.flat_share + self.swap_share > 1:
+            raise ValueError(f"flat_share + swap_share is {self.flat_share + self.swap_share:g}: shares of the "
+                             f"variants, together at most 1")
         return self
+
+    def dropped_keys(self) -> tuple[str, ...]:
+        """Keys left out of the recorded config because they are at their no-op value (same bytes as before)."""
+        return ((self.RELIEF_KEYS if self.relief == 0 else ())
+                + tuple(k for k in self.MODE_KEYS if getattr(self, k) == 0))
 
 
 class BlendConfig(StageConfig):

@@ -7,16 +7,25 @@ parameters are rounded afterwards). The variant's generator seed and its
 perturbation come from one derived seed, derive_seed(master, "sample",
 crc32(preset name), k): a variant does not change when other presets are
 added or removed.
+
+Relief modes (#22, :class:`Relief`): after the generator, a share of the variants (``flat_share``, variant 0
+included) gets flat normals and another (``swap_share``) an independent random height field in place of its own
+relief, each variant's mode drawn from its own seed; colour, specular and roughness stay the generator's. A
+network then cannot read relief from colour texture alone, which made models paint relief onto flat real
+materials (benchmarks/bench_shape_finetune.py). Imported materials' variants keep their measured relief
+(``relief_modes`` of their spec).
 """
 from __future__ import annotations
 
 import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 import materials
+from materials.heights import independent_relief
 from materials.noise import add_height, band_relief
 from materials.params import perturb
 
@@ -38,6 +47,8 @@ from .sample_from import imported_stores, plan_imported
 class VariantSpec:
     """One variant to make: preset, index within the preset, derived seed."""
 
+    #: the stage's relief modes apply: a generator's relief follows its colour fields (:class:`Relief`)
+    relief_modes: ClassVar[bool] = True
     preset: str
     k: int
     seed: int
@@ -101,18 +112,53 @@ def make_variant(spec: VariantSpec, sigma: float, size: int) -> tuple[materials.
     return preset.generate(params, size, map_seed), params
 
 
-def with_relief(m: materials.SVBRDF, seed: int, relief: float, cycles: float) -> materials.SVBRDF:
-    """``m`` with an extra band of relief (``SampleConfig.relief``/``relief_cycles``) added to its heights; its own
-    seed stream, derived from the variant's, so the rest of the variant is unchanged."""
-    if relief <= 0:
-        return m
-    # key 1 << 20: no index of the sample stream reaches it, so the relief draws are independent of the variants
-    h = band_relief(m.size, derive_seed(seed, "sample", 1 << 20), cycles, relief)
-    return materials.SVBRDF(add_height(m.normal, h), m.diffuse, m.specular, m.roughness)
+@dataclass(frozen=True)
+class Relief:
+    """What the stage does to each variant's relief after the generator (the ``SampleConfig`` keys of the same
+    names; all zero: nothing, the variants as their presets make them).
+
+    Attributes:
+        relief, relief_cycles: an extra band of relief added to every preset's variant (RMS slope, band centre).
+        flat_share: share of variants given flat normals (colour, specular and roughness kept).
+        swap_share: share of variants whose relief is replaced by an independent height field.
+    """
+
+    relief: float = 0.0
+    relief_cycles: float = 8.0
+    flat_share: float = 0.0
+    swap_share: float = 0.0
+
+    @classmethod
+    def of(cls, cfg: SampleConfig) -> "Relief":
+        return cls(cfg.relief, cfg.relief_cycles, cfg.flat_share, cfg.swap_share)
+
+    def mode(self, seed: int) -> str:
+        """"flat", "independent" or "own" for the variant of seed ``seed``: one uniform draw of its own stream
+        (key 1 << 20 | 1: no index of the sample stream reaches it), so the rest of the variant is unchanged."""
+        if self.flat_share <= 0 and self.swap_share <= 0:
+            return "own"
+        u = np.random.default_rng(derive_seed(seed, "sample", (1 << 20) | 1)).random()
+        return "flat" if u < self.flat_share else "independent" if u < self.flat_share + self.swap_share else "own"
+
+    def apply(self, m: materials.SVBRDF, seed: int, modes: bool = True) -> materials.SVBRDF:
+        """``m`` with its relief changed as configured: when ``modes`` (a preset's variant), the relief mode of
+        :meth:`mode`, then the extra band; an imported material's variant (``modes`` False) unchanged."""
+        mode = self.mode(seed) if modes else "own"
+        if mode != "own":
+            flat = np.zeros_like(m.normal)
+            flat[..., 2] = 1.0
+            h = independent_relief(m.size, derive_seed(seed, "sample", (1 << 20) | 2)) if mode == "independent" \
+                else None
+            m = materials.SVBRDF(flat if h is None else add_height(flat, h), m.diffuse, m.specular, m.roughness)
+        if self.relief <= 0 or not modes:
+            return m
+        # key 1 << 20: no index of the sample stream reaches it, so the relief draws are independent of the variants
+        h = band_relief(m.size, derive_seed(seed, "sample", 1 << 20), self.relief_cycles, self.relief)
+        return materials.SVBRDF(add_height(m.normal, h), m.diffuse, m.specular, m.roughness)
 
 
 def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, sigma: float, size: int,
-                preset_index: dict[str, int], max_params: int, relief: float = 0.0, relief_cycles: float = 8.0) -> int:
+                preset_index: dict[str, int], max_params: int, relief: Relief = Relief()) -> int:
     """Worker: make the variants of chunk ``c`` and write them (one whole chunk).
 
     ``specs`` are :class:`VariantSpec` or, with imported stores, :class:`pipeline.sample_from.ImportedSpec`:
@@ -124,7 +170,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, 
     params = np.full((n, max_params), np.nan, np.float32)
     for j, spec in enumerate(specs[start:stop]):
         m, pv = spec.make(sigma, size)
-        m = with_relief(m, spec.seed, relief, relief_cycles)
+        m = relief.apply(m, spec.seed, modes=spec.relief_modes)
         for k, v in encode_maps(m.validate()).items():
             maps[k].append(v)
         params[j, :len(pv)] = list(pv.values())
@@ -155,12 +201,12 @@ def sample_stage(cfg: SampleConfig) -> Stage:
     attrs = {"presets": names,
              "param_names": {p.name: p.exposed.names() for p in chosen},
              "perturbation": "variant 0 = defaults; else truncnorm(default, sigma*(high-low)) on [low, high]"}
-    drop = SampleConfig.IMPORT_KEYS + (SampleConfig.RELIEF_KEYS if cfg.relief == 0 else ())
+    drop = SampleConfig.IMPORT_KEYS + cfg.dropped_keys()
     config = {k: v for k, v in cfg.as_dict().items() if k not in drop}
     return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config,
                  attrs, _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
                                           preset_index={n: i for i, n in enumerate(names)}, max_params=max_params,
-                                          relief=cfg.relief, relief_cycles=cfg.relief_cycles),
+                                          relief=Relief.of(cfg)),
                  desc="sample", unit="variant")
 
 
@@ -200,10 +246,10 @@ def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
 
     # the imported stores' identities (config hashes, not how their paths are spelled) are part of the config:
     # resuming against a re-imported store is refused; the path keys are not (#15: paths never in the hash)
-    drop = ("from_stores", "from_dir") + (SampleConfig.RELIEF_KEYS if cfg.relief == 0 else ())
+    drop = ("from_stores", "from_dir") + cfg.dropped_keys()
     config = {**{k: v for k, v in cfg.as_dict().items() if k not in drop}, "from": hashes}
     return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config, attrs,
                  _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
                                    preset_index={n: i for i, n in enumerate(names)}, max_params=max_params,
-                                   relief=cfg.relief, relief_cycles=cfg.relief_cycles),
+                                   relief=Relief.of(cfg)),
                  desc="sample", unit="variant", inputs=tuple(stores))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import zlib
 from dataclasses import dataclass
+from typing import ClassVar
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,9 @@ from .config import SampleConfig
 class ImportedSpec:
     """Variant k of material ``index`` of imported store ``store`` (its preset name, derived seed)."""
 
+    #: no relief modes: an imported material's relief is measured, not a generator's guess (variant 0 is the
+    #: material itself)
+    relief_modes: ClassVar[bool] = False
     store: str
     index: int
     preset: str

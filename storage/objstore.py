@@ -333,6 +333,8 @@ _ASYNC_FS: list = []
 
 
 def _close_async_sessions() -> None:
+    if not _ASYNC_FS:  # nothing opened: importing zarr at exit would fail ("can't register atexit after shutdown")
+        return
     from zarr.core.sync import sync
 
     for fs in _ASYNC_FS:

@@ -11,6 +11,27 @@ import pytest
 os.environ.setdefault("SVGEN_NO_PROGRESS", "1")
 
 
+@pytest.fixture(autouse=True)
+def dask_scheduler_config_unchanged():
+    """Every test leaves this process's dask ``scheduler`` config as it found it. A leaked "dask.distributed" (a
+    default Client that never closed) broke every later test on the same xdist worker that reads a store through
+    xarray (CI of stop 31); this names the test that leaked it instead."""
+    import sys
+
+    def scheduler():
+        return sys.modules["dask"].config.get("scheduler", None) if "dask" in sys.modules else None
+
+    before = scheduler()
+    yield
+    after = scheduler()
+    if after != before:  # put it back, so that the tests after this one still run as they would
+        if before is None:
+            sys.modules["dask"].config.config.pop("scheduler", None)
+        else:
+            sys.modules["dask"].config.set(scheduler=before)
+        pytest.fail(f"this test left dask.config scheduler={after!r} (was {before!r}) in the test process")
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     """A fresh generator with a fixed seed for every test."""

@@ -66,3 +66,28 @@ def test_bench_on_the_reference(reference_dir, tmp_path):
     assert sum(rep["octave_shares"][rep["reference"]["name"]]) == pytest.approx(1.0)
     assert "/" not in d["statistics"]["reference_folder"][:1]  # relative, no absolute path in results
     assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("setting", ["nosuchkey=1", "relief", "relief=-1"])
+def test_a_bad_library_setting_is_one_line(tmp_path, setting):
+    r = bench(tmp_path, "--set", setting, "--out", tmp_path / "r.json")
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.count("\n") == 1 and r.stderr.startswith("bench_realism: ")
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_a_library_setting_reaches_the_library_and_its_own_key(reference_dir, tmp_path):
+    """``--set`` changes the library measured (a strong band of relief at 24 cycles per 64-pixel map puts most
+    slope power in the finest octave, 16-32 cycles) and ``--key`` keeps the default's figures and chart."""
+    out = tmp_path / "realism.json"
+    out.write_text(json.dumps({"statistics": {"kept": True}}))
+    r = bench(reference_dir, "--per-preset", 1, "--size", 64, "--splits", 2, "--out", out,
+              "--set", "relief=0.5", "--set", "relief_cycles=24", "--key", "statistics_band")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(out.read_text())
+    assert d["statistics"] == {"kept": True}
+    res = d["statistics_band"]
+    assert res["library"]["settings"] == {"relief": 0.5, "relief_cycles": 24}
+    shares = res["report"]["octave_shares"]["svgen default library"]
+    assert shares[res["report"]["octaves"].index([16, 32])] > 0.6, shares  # the default library: 0.36
+    assert not list(tmp_path.glob("*.png"))

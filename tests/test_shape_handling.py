@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+import torch
 
 from materials.maps import SVBRDF, pack_maps
 from materials.noise import add_height, band_relief, height_slopes, height_to_normal
@@ -110,6 +111,44 @@ def test_band_relief_has_its_slope_and_its_scale(cycles):
     assert cycles * 0.8 < peak < cycles * 1.6
 
 
+def test_the_rmse_normal_term_is_the_evaluations_normal_column():
+    """optim.normal_loss=rmse is exactly what svtrain eval reports, the mean over samples of each sample's normal RMSE
+    in the (n+1)/2 encoding, not a pooled error: a perfect sample beside a wrong one halves it."""
+    from train.evaluate import metrics
+    from train.fit import normal_term
+
+    g = torch.Generator().manual_seed(3)
+    t = torch.rand(4, 10, 8, 8, generator=g)
+    p = torch.rand(4, 10, 8, 8, generator=g)
+    for m in (t, p):
+        m[:, 0:3] = torch.nn.functional.normalize(m[:, 0:3] - torch.tensor([0.5, 0.5, 0.0])[:, None, None], dim=1)
+    p[0] = t[0]  # one perfect sample
+    want = float(np.mean(metrics(p, t)["normal"]))
+    # tolerance: the term's 1e-8 under each root adds at most sqrt(1e-8) = 1e-4 (the perfect sample's whole RMSE)
+    assert float(normal_term(p, t, "rmse")) == pytest.approx(want, abs=1e-4)
+    pooled = float((((p[:, 0:3] - t[:, 0:3]) * 0.5) ** 2).mean().sqrt())
+    assert abs(float(normal_term(p, t, "rmse")) - pooled) > 0.01 * pooled  # not the pooled RMSE
+
+
+def test_the_late_normal_term_takes_over_at_its_share_of_the_run():
+    """optim.normal_late_loss: before normal_late_from x iterations the loss holds normal_l2 x the normal_loss form,
+    from that step on normal_late_weight x the late form (the rendering term off, so the loss is the normal term)."""
+    from train.config import OptimConfig
+    from train.fit import loss_terms, normal_term
+
+    g = torch.Generator().manual_seed(5)
+    t, p = torch.rand(2, 10, 8, 8, generator=g), torch.rand(2, 10, 8, 8, generator=g)
+    o = OptimConfig(iterations=10, render_weight=0, normal_l2=100.0, normal_loss="l2", normal_late_loss="rmse",
+                    normal_late_from=0.4, normal_late_weight=30.0)
+    early, late = 100.0 * float(normal_term(p, t, "l2")), 30.0 * float(normal_term(p, t, "rmse"))
+    assert early != pytest.approx(late)  # the two forms tell the steps apart
+    for step, want in ((0, early), (3, early), (4, late), (9, late), (None, early)):
+        assert float(loss_terms(p, t, None, g, o, step=step)) == pytest.approx(want, rel=1e-6), step
+    # unset: the normal_loss form throughout
+    plain = OptimConfig(iterations=10, render_weight=0, normal_l2=100.0)
+    assert float(loss_terms(p, t, None, g, plain, step=9)) == pytest.approx(early, rel=1e-6)
+
+
 @pytest.mark.parametrize("kind", ["l2", "slope", "cosine"])
 def test_normal_term_forms(kind):
     """optim.normal_loss: 0 for the true normals; for one tilted pixel the hand-computed value of each form."""
@@ -129,12 +168,63 @@ def test_normal_term_forms(kind):
 def test_sample_relief_adds_its_band_to_a_variant_and_nothing_else():
     """svgen sample's relief knob: off leaves the variant as it is; on adds exactly the band's slopes to its normals
     and leaves the other maps alone."""
-    from pipeline.sample import with_relief
+    from pipeline.sample import Relief
     from svcore.seeds import derive_seed
 
     m = maps_of(smooth_height(64))
-    assert with_relief(m, 7, 0.0, 8.0) is m
-    r = with_relief(m, 7, 0.2, 8.0)
+    assert Relief().apply(m, 7) is m
+    r = Relief(0.2, 8.0).apply(m, 7)
     np.testing.assert_allclose(r.normal, add_height(m.normal, band_relief(64, derive_seed(7, "sample", 1 << 20), 8.0, 0.2)))
     for k in ("diffuse", "specular", "roughness"):
         assert getattr(r, k) is getattr(m, k)
+
+
+def test_relief_modes_replace_only_the_normals_in_their_shares():
+    """flat_share / swap_share: about their share of variants gets flat normals or an independent relief, drawn from
+    each variant's own seed; the other maps are the generator's, untouched."""
+    from materials.heights import independent_relief
+    from pipeline.sample import Relief
+    from svcore.seeds import derive_seed
+
+    m = maps_of(smooth_height(64))
+    rel = Relief(flat_share=0.3, swap_share=0.4)
+    modes = [rel.mode(s) for s in range(2000)]
+    share = {k: modes.count(k) / len(modes) for k in ("flat", "independent", "own")}
+    # binomial standard error at n = 2000 is <= 0.011: 4 of them
+    assert abs(share["flat"] - 0.3) < 0.045 and abs(share["independent"] - 0.4) < 0.045, share
+    for seed in (modes.index("flat"), modes.index("independent"), modes.index("own")):
+        r = rel.apply(m, seed)
+        for k in ("diffuse", "specular", "roughness"):
+            assert getattr(r, k) is getattr(m, k)
+        if modes[seed] == "flat":
+            np.testing.assert_array_equal(r.normal[..., :2], 0.0)
+        elif modes[seed] == "independent":
+            flat = np.zeros_like(m.normal)
+            flat[..., 2] = 1
+            h = independent_relief(64, derive_seed(seed, "sample", (1 << 20) | 2))
+            np.testing.assert_allclose(r.normal, add_height(flat, h), atol=1e-6)
+            assert np.abs(r.normal - m.normal).max() > 0.05  # not the variant's own relief
+        else:
+            assert r is m
+
+
+def test_the_default_library_has_fine_grain_on_presets_variants_only():
+    """The default sample config adds the fine grain of #23 (an RMS slope of 0.06 at 64 cycles per map) to a
+    preset's variant, with its power in the finest octaves; an imported material's variant (``modes`` False) keeps
+    its measured relief untouched."""
+    from pipeline.config import SampleConfig
+    from pipeline.sample import Relief
+    from svcore.config import build
+
+    rel = Relief.of(build(SampleConfig))
+    assert (rel.relief, rel.relief_cycles) == (0.06, 64.0)
+    m = maps_of(smooth_height(256))
+    assert rel.apply(m, 7, modes=False) is m
+    seed = next(s for s in range(100) if rel.mode(s) == "own")
+    r = rel.apply(m, seed)
+    # the added slopes: the grain alone (its heights' RMS slope 0.06), nearly all above 32 cycles per map
+    d = r.normal[..., :2] / r.normal[..., 2:3] - m.normal[..., :2] / m.normal[..., 2:3]
+    assert 0.04 < float(np.sqrt((d ** 2).sum(-1).mean())) < 0.08
+    f = np.abs(np.fft.fft2(d, axes=(0, 1))) ** 2
+    k = np.hypot(*np.meshgrid(np.fft.fftfreq(256) * 256, np.fft.fftfreq(256) * 256, indexing="ij"))
+    assert f[k >= 32].sum() / f.sum() > 0.9

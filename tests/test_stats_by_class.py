@@ -34,3 +34,17 @@ def test_missing_reference_is_refused_in_one_line(tmp_path):
     r = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "stats_by_class.py"), str(tmp_path / "nope")],
                        capture_output=True, text=True)
     assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "no reference folder" in r.stderr
+
+
+def test_per_material_statistics_count_each_material_once():
+    """cv_specular is one value per material (svgen stats compares those), so a material's pixel count must not
+    weight it: values() gives (M, 1), and a class's summary is over its materials."""
+    from types import SimpleNamespace
+
+    p = SimpleNamespace(pixels={s: np.zeros((3, 16)) for s in sbc.PIXEL_STATS},
+                        per_material={s: np.array([0.0, 0.0, 1.2]) for s in sbc.MATERIAL_STATS})
+    v = sbc.values(p)
+    assert v["cv_specular"].shape == (3, 1) and v["roughness"].shape == (3, 16)
+    out = sbc.by_group(v, ["paint", "paint", "metal_sheet"], {s: np.zeros((2, 1)) for s in sbc.STATS})
+    assert out["cv_specular"]["metal_sheet"]["mean"] == 1.2 and out["cv_specular"]["paint"]["w_alone"] == 0.0
+    assert out["cv_specular"]["metal_sheet"]["w_without_delta"] > 0

@@ -124,3 +124,14 @@ def test_local_writer_refuses_an_object_url_and_the_door_picks_the_backend(tmp_p
         StoreWriter("s3://bucket/v.zarr", "variants", 4, 4, ARRAYS, {})
     assert type(open_writer(tmp_path / "v.zarr", "variants", 4, 4, ARRAYS, {})) is StoreWriter
     assert issubclass(ObjectStoreWriter, StoreWriter)
+
+
+def test_a_program_that_never_opened_an_object_store_exits_without_a_traceback():
+    """storage.objstore closes the S3 sessions zarr opened at exit; a program that opened none (most: any script that
+    imports the storage package for a local store) must not import zarr at exit, which Python refuses then
+    ("can't register atexit after shutdown", a traceback on every exit)."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-c", "import storage.objstore"], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stderr == "", r.stderr

@@ -48,6 +48,23 @@ def test_crop_keeps_alignment(src):
     np.testing.assert_array_equal(src.packed(0)[y:y + 32, x:x + 32], maps)
 
 
+def test_centre_crops_are_the_evaluation_window_with_the_same_flips(src):
+    """data.crop_at=centre: every training crop is the view's centre window (the one evaluation takes), and the flips
+    of each position are those a random-crop run draws (the offsets are drawn, then not used)."""
+    tr, _ = split_by_source(src, 0.3, 0)
+    centre = PairDataset(src, tr, 24, seed=5, flips=False, centre=True)
+    for pos in range(6):
+        i = centre.index_of(pos)
+        img, maps = centre[pos]
+        want_img, want_maps = PairDataset(src, [i], 24, train=False)[0]
+        assert torch.equal(img, want_img) and torch.equal(maps, want_maps)
+    rand = PairDataset(src, tr, 24, seed=5, flips=False)
+    assert any(not torch.equal(rand[p][0], centre[p][0]) for p in range(6))  # random crops do move
+    flipped_c, flipped_r = PairDataset(src, tr, 40, seed=5, centre=True), PairDataset(src, tr, 40, seed=5)
+    for pos in range(6):  # at crop = the full view both read the whole view: the same flips give the same item
+        assert torch.equal(flipped_c[pos][1], flipped_r[pos][1])
+
+
 def test_batches_pure_function_of_step_and_workers(src):
     tr, _ = split_by_source(src, 0.3, 0)
     ds = PairDataset(src, tr, 32, seed=5)

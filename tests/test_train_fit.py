@@ -136,8 +136,8 @@ def test_normal_l2_adds_a_squared_term_on_the_normals_only(src):
     losses, grads = {}, {}
     for w in (0.0, 3.0):
         # no clipping: a clipped gradient is rescaled by the total norm, which the extra term changes
-        cfg = resolve("compact", None, {**TINY, "optim.normal_l2": w, "model.zero_output": False,
-                                        "optim.grad_clip": 0.0})
+        cfg = resolve("compact", None, {**TINY, "optim.normal_l2": w, "optim.normal_loss": "l2",
+                                        "model.zero_output": False, "optim.grad_clip": 0.0})
         model, opt, gen = build(cfg)
         losses[w], _ = train_step(model, opt, make_loss(False), img, maps, gen, cfg.optim, 0)
         grads[w] = model.out_conv.weight.grad.clone()
@@ -181,3 +181,24 @@ def test_resume_if_unchanged_continues_only_the_same_run(src, tmp_path):
     fit(other, tmp_path / "d", source=src, stop_after=3)
     with pytest.raises(ConfigError, match=r"optim.lr 0.0005 -> 0.001\).*--no-resume"):
         fit(cfg, tmp_path / "d", source=src)
+
+
+def test_a_key_added_since_a_checkpoint_counts_as_its_default(src, tmp_path):
+    """A checkpoint written before a config key existed resumes when this run keeps that key's default (a new key's
+    default is the behaviour from before it), and is refused, naming the key, when the run sets another value."""
+    import torch
+
+    cfg = resolve("compact", None, {**TINY, "optim.iterations": 6})
+    fit(cfg, tmp_path / "a", source=src, stop_after=3)
+    ck = tmp_path / "a" / "checkpoint.pt"
+    state = torch.load(ck, map_location="cpu", weights_only=False)
+    del state["config"]["optim"]["normal_late_weight"]  # as written by the code before the key
+    torch.save(state, ck)
+    assert fit(cfg, tmp_path / "a", source=src)["resumed_from"] == 3
+    fit(cfg, tmp_path / "b", source=src, stop_after=3)
+    state = torch.load(tmp_path / "b" / "checkpoint.pt", map_location="cpu", weights_only=False)
+    del state["config"]["optim"]["normal_late_weight"]
+    torch.save(state, tmp_path / "b" / "checkpoint.pt")
+    other = resolve("compact", None, {**TINY, "optim.iterations": 6, "optim.normal_late_weight": 10.0})
+    with pytest.raises(ConfigError, match=r"optim.normal_late_weight 30.0 -> 10.0"):
+        fit(other, tmp_path / "b", source=src)

@@ -93,7 +93,7 @@ def split_for(src: Source, data) -> tuple[np.ndarray, np.ndarray]:
 
 
 def augment(image: np.ndarray, maps: np.ndarray, rng: np.random.Generator | None, crop: int,
-            flips: bool = True) -> tuple[np.ndarray, np.ndarray]:
+            flips: bool = True, centre: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Crop, rotate by k·90° and flip an image and its maps together, keeping normals consistent.
 
     With x right and y up in the image, ``np.rot90`` (counter-clockwise on screen) maps a normal
@@ -103,6 +103,8 @@ def augment(image: np.ndarray, maps: np.ndarray, rng: np.random.Generator | None
         image: (H, W, 3). maps: (H, W, 10) packed.
         rng: randomness (None: deterministic centre crop, no flips).
         crop: output side (<= H, W).
+        flips: random rotations and flips (with ``rng``).
+        centre: the centre crop even with ``rng`` (the offsets are still drawn, so the flips stay those of step t).
 
     Returns:
         (crop, crop, 3) image and (crop, crop, 10) maps, contiguous float32.
@@ -114,6 +116,8 @@ def augment(image: np.ndarray, maps: np.ndarray, rng: np.random.Generator | None
         y0, x0 = (h - crop) // 2, (w - crop) // 2
     else:
         y0, x0 = int(rng.integers(0, h - crop + 1)), int(rng.integers(0, w - crop + 1))
+        if centre:
+            y0, x0 = (h - crop) // 2, (w - crop) // 2
     img = image[y0:y0 + crop, x0:x0 + crop]
     mp = maps[y0:y0 + crop, x0:x0 + crop]
     if rng is not None and flips:
@@ -144,16 +148,18 @@ class PairDataset(Dataset):
         train: random crops/flips and epoch permutations; False = index k is ``indices[k]``,
             centre crop, no flips (evaluation).
         flips: random 90° rotations and flips (train only).
+        centre: training crops at the view's centre, like evaluation's (``data.crop_at``); flips still apply.
 
     Items are ``(image (3, c, c), maps (10, c, c))`` float32 tensors.
     """
 
     def __init__(self, src: Source, indices: Sequence[int], crop: int, seed: int = 0, train: bool = True,
-                 flips: bool = True):
+                 flips: bool = True, centre: bool = False):
         self.src, self.indices = src, np.asarray(indices, np.int64)
         if len(self.indices) == 0:
             raise StoreError("the dataset split is empty (too few samples or presets)")
         self.crop, self.seed, self.train, self.flips = int(crop), int(seed), train, flips
+        self.centre = centre
         self._perm_epoch, self._perm = -1, None
 
     def __len__(self) -> int:
@@ -179,13 +185,15 @@ class PairDataset(Dataset):
             h = self.src.res
             if self.crop > h:
                 raise StoreError(f"crop {self.crop} is larger than the {h}x{h} renders")
-            y0, x0 = ((h - self.crop) // 2,) * 2 if rng is None else tuple(int(rng.integers(0, h - self.crop + 1))
-                                                                            for _ in range(2))
+            y0, x0 = tuple(int(rng.integers(0, h - self.crop + 1)) for _ in range(2)) if rng is not None \
+                else ((h - self.crop) // 2,) * 2
+            if self.centre:  # the same draws as random crops, so the flips of step t are those of a random-crop run
+                y0, x0 = ((h - self.crop) // 2,) * 2
             img, m = crop(i, y0, x0, self.crop)
             mp = pack_maps(m)
         else:
             img, mp = np.asarray(self.src.image(i), np.float32), packed_maps(self.src, i)
-        img, mp = augment(img, mp, rng, self.crop, self.flips)
+        img, mp = augment(img, mp, rng, self.crop, self.flips, self.centre)
         return torch.from_numpy(img).permute(2, 0, 1), torch.from_numpy(mp).permute(2, 0, 1)
 
 

@@ -91,8 +91,13 @@ def lr_at(o: OptimConfig, step: int) -> float:
 
 def normal_term(pred: torch.Tensor, maps: torch.Tensor, kind: str = "l2") -> torch.Tensor:
     """The normal term's value (``optim.normal_loss``) on (B, 10, H, W) packed maps: mean squared error of the x, y
-    components ("l2") or of the slopes x/z, y/z ("slope"), or the mean of 1 - cosine ("cosine")."""
+    components ("l2") or of the slopes x/z, y/z ("slope"), the mean of 1 - cosine ("cosine"), or the mean over
+    samples of each sample's RMSE in the (n+1)/2 encoding ("rmse": what ``svtrain eval`` reports; unlike a pooled
+    squared error it weighs a sample's error by 1 / its RMSE, so relief predicted on a flat material costs much)."""
     p, t = pred[:, 0:3], maps[:, 0:3]
+    if kind == "rmse":
+        # 1e-8 under the root: a finite gradient at a perfect prediction (RMSE ~ 1e-4 at worst, far below the data's)
+        return (((p - t) * 0.5) ** 2).mean((1, 2, 3)).add(1e-8).sqrt().mean()
     if kind == "slope":
         return ((p[:, 0:2] / p[:, 2:3].clamp(min=0.05) - t[:, 0:2] / t[:, 2:3].clamp(min=0.05)) ** 2).mean()
     if kind == "cosine":
@@ -100,13 +105,22 @@ def normal_term(pred: torch.Tensor, maps: torch.Tensor, kind: str = "l2") -> tor
     return ((p[:, 0:2] - t[:, 0:2]) ** 2).mean()
 
 
+def normal_form(o: OptimConfig, step: int | None) -> tuple[float, str]:
+    """(weight, form) of the normal term at 0-based ``step``: ``normal_late_*`` from ``normal_late_from`` of the run
+    on, else ``normal_l2`` and ``normal_loss`` (``step`` None: the first form)."""
+    if o.normal_late_loss is not None and step is not None and step >= o.normal_late_from * o.iterations:
+        return o.normal_late_weight, o.normal_late_loss
+    return o.normal_l2, o.normal_loss
+
+
 def loss_terms(pred: torch.Tensor, maps: torch.Tensor, loss_fn, gen: torch.Generator, o: OptimConfig,
-               configs: LossConfigs | None = None) -> torch.Tensor:
-    """The training loss: ``render_weight`` x the rendering loss + ``map_l1`` x L1 on the packed maps + ``normal_l2``
-    x squared error on the normals' x and y; a term of weight 0 is not computed (the L1 arm renders nothing).
+               configs: LossConfigs | None = None, step: int | None = None) -> torch.Tensor:
+    """The training loss: ``render_weight`` x the rendering loss + ``map_l1`` x L1 on the packed maps + the normal
+    term (:func:`normal_form` at ``step``); a term of weight 0 is not computed (the L1 arm renders nothing).
 
     Args:
         pred, maps: (B, 10, H, W) float32 predicted and target packed maps.
+        step: 0-based step of the run (selects the late normal term; None: the first form).
     """
     terms = []
     if o.render_weight > 0:
@@ -114,8 +128,9 @@ def loss_terms(pred: torch.Tensor, maps: torch.Tensor, loss_fn, gen: torch.Gener
         terms.append(r if o.render_weight == 1.0 else o.render_weight * r)
     if o.map_l1 > 0:
         terms.append(o.map_l1 * (pred - maps).abs().mean())
-    if o.normal_l2 > 0:
-        terms.append(o.normal_l2 * normal_term(pred, maps, o.normal_loss))
+    weight, form = normal_form(o, step)
+    if weight > 0:
+        terms.append(weight * normal_term(pred, maps, form))
     return sum(terms[1:], terms[0])  # config validation guarantees at least one term
 
 
@@ -141,7 +156,7 @@ def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, imag
     # Everything after the network is float32 (train/device.py lists the fp32 islands): the loss upcasts anyway,
     # the map terms are taken on the same float32 prediction.
     pred = pred.float()
-    loss = loss_terms(pred, maps, loss_fn, gen, o, configs)
+    loss = loss_terms(pred, maps, loss_fn, gen, o, configs, step)
     opt.zero_grad(set_to_none=True)
     scaled = scaler is not None and scaler.is_enabled()
     (scaler.scale(loss) if scaled else loss).backward()
@@ -416,7 +431,8 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
         runinfo.record(out, cfg.data.store)
         (out / "config.yaml").write_text(params_text(cfg))  # a params file: `svtrain fit --params` reruns it
         (out / "provenance.json").write_text(json.dumps(provenance(cfg, src), indent=2) + "\n")
-    ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment)
+    ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment,
+                     centre=cfg.data.crop_at == "centre")
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
 
     def save(step: int) -> None:

@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 from svcore import versions
-from svcore.errors import StoreError
+from svcore.errors import ConfigError, StoreError
 
 RUN_FILE = "run.json"
 
@@ -87,8 +87,17 @@ def describe_data(data: dict | None) -> str:
 
 def resume_changes(state: dict, cfg, data: dict) -> list[str]:
     """What differs between a checkpoint and this run beyond :data:`RESUMABLE_KEYS`: ``key old -> new`` for each
-    config key, and the data when its identity differs (checkpoints from before it was recorded: config only)."""
-    old, new = _flat(state["config"]), _flat(cfg.to_dict())
+    config key, and the data when its identity differs (checkpoints from before it was recorded: config only).
+
+    A key added to the config since the checkpoint was written counts as its default there (a new key's default
+    is the behaviour from before it existed), so adding a key does not make every earlier run unresumable."""
+    from train.config import from_dict
+
+    try:
+        recorded = from_dict(state["config"]).to_dict()
+    except ConfigError:  # a config this code no longer validates: compare it as written (every difference shows)
+        recorded = state["config"]
+    old, new = _flat(recorded), _flat(cfg.to_dict())
     changed = [f"{k} {old.get(k)!r} -> {new.get(k)!r}" for k in sorted(set(old) | set(new))
                if k not in RESUMABLE_KEYS and old.get(k) != new.get(k)]
     if "data" in state and data_identity(state["data"]) != data_identity(data):

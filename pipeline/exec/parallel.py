@@ -58,6 +58,11 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
 
     Raises:
         ConfigError: bad worker count or unreachable scheduler.
+
+    The client is never dask's default (``set_as_default=False``): svgen submits to it by name, and a default
+    client sets ``dask.config`` scheduler="dask.distributed" in this process, which distributed leaves behind when
+    the connection fails ("notaurl") or clients close out of order; every later ``.compute()`` here (xarray reading
+    a store) then failed with "no Client active" (CI of stop 31, tests/test_parallel.py).
     """
     import dask
     from distributed import Client, LocalCluster
@@ -73,7 +78,7 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
 
     if scheduler_address:
         try:
-            client = Client(scheduler_address, timeout=f"{connect_timeout}s")
+            client = Client(scheduler_address, timeout=f"{connect_timeout}s", set_as_default=False)
         except (OSError, TimeoutError) as e:
             raise ConfigError(f"cannot reach the dask scheduler at {scheduler_address}: {e}") from None
         except ValueError as e:  # distributed's address parser: "notaurl" is not host:port
@@ -86,14 +91,20 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
         return
     if workers < 1:
         raise ConfigError(f"--workers must be >= 1 for a local cluster, got {workers}")
-    # daemon=False: worker processes may start their own pools (drjit threads, torch loaders)
-    with dask.config.set({"distributed.worker.daemon": False}):
+    # daemon=False: worker processes may start their own pools (drjit threads, torch loaders).
+    # MALLOC_TRIM_THRESHOLD_ unset (None): dask's nanny sets it to 64 KiB in every worker, and setting it at all
+    # turns off glibc's dynamic mmap threshold, so every map-sized array (> 128 KiB) is a fresh mmap, page-faulted
+    # in and unmapped again: the data stages spent more CPU in the kernel than in their work (svgen sample with 2
+    # workers: 47.9 s wall, 45 s system CPU, 18.8 s without; benchmarks/bench_worker_env.py -> worker_env.json). A value the user exported still holds
+    # (the workers inherit this process's environment).
+    with dask.config.set({"distributed.worker.daemon": False,
+                          "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
         # a failing task's exception reaches the client (fut.result() re-raises it, and the CLI prints one line);
         # the workers' own "Compute Failed" report of it (5 lines at ERROR) is shown only with --verbose
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                silence_logs=logging.ERROR if log.isEnabledFor(logging.DEBUG) else logging.CRITICAL)
         try:
-            with Client(cluster) as client:
+            with Client(cluster, set_as_default=False) as client:
                 yield client
         finally:
             cluster.close()
@@ -206,7 +217,7 @@ def run_chunks(fn: Callable[[int, int], int], chunks: Iterable[int], *, workers:
             window = max(8, WINDOW_PER_WORKER * len(client.scheduler_info().get("workers", {})))
             todo = iter(chunks)
             pending: set = set()
-            running = as_completed()
+            running = as_completed(loop=client.loop)
 
             def submit(c: int) -> None:
                 fut = client.submit(task, c, pure=False, retries=RETRIES)

@@ -1,0 +1,70 @@
+"""The effect of a change between two runs, view by view: per column, the control's RMSE minus the arm's on the same
+views (positive: the arm is better), with a 95 % bootstrap interval over whole SVBRDFs (``train.evaluate.paired``).
+
+Each pair compares two ``svtrain eval`` output folders of the same store (their ``per_view.csv``); runs trained with
+the same seed on two libraries give the same views of every evaluated store, so the difference is the runs'.
+
+    python3 benchmarks/paired_effects.py --pair real_crop1 CONTROL/eval_crop1 ARM/eval_crop1 \\
+        --pair heldout CONTROL/eval_heldout ARM/eval_heldout_other --out benchmarks/results/effects.json
+"""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from harness import parser, write_results
+
+COLUMNS = ("rerender", "normal", "diffuse", "roughness", "specular")
+
+
+def per_view(folder: Path) -> dict[int, dict]:
+    """view index -> {"svbrdf": id, column: RMSE} from an eval folder's per_view.csv."""
+    with open(folder / "per_view.csv") as f:
+        return {int(r["view"]): {"svbrdf": int(r["svbrdf"]), **{c: float(r[c]) for c in COLUMNS}}
+                for r in csv.DictReader(f)}
+
+
+def effects(control: Path, arm: Path) -> dict:
+    """Per column: control and arm mean RMSE over the shared views, and the paired gain (control - arm)."""
+    from train.evaluate import paired
+
+    a, b = per_view(control), per_view(arm)
+    views = sorted(set(a) & set(b))
+    if not views or len(views) != len(a) or len(views) != len(b):
+        raise SystemExit(f"{control} and {arm} did not evaluate the same views ({len(a)} and {len(b)}, "
+                         f"{len(views)} shared)")
+    if any(a[v]["svbrdf"] != b[v]["svbrdf"] for v in views):
+        raise SystemExit(f"{control} and {arm} group the views into different SVBRDFs: not the same store")
+    clusters = np.array([a[v]["svbrdf"] for v in views])
+    out = {"views": len(views)}
+    for c in COLUMNS:
+        x, y = np.array([a[v][c] for v in views]), np.array([b[v][c] for v in views])
+        p = paired(y, x, clusters, seed=0)
+        out[c] = {"control": round(float(x.mean()), 5), "arm": round(float(y.mean()), 5),
+                  "gain": round(p["gain"], 5), "ci95": [round(v, 5) for v in p["ci95"]],
+                  "beyond_noise": "better" if p["ci95"][0] > 0 else "worse" if p["ci95"][1] < 0 else "no"}
+    out["svbrdfs"] = int(len(np.unique(clusters)))
+    return out
+
+
+def main(argv=None) -> None:
+    ap = parser(__doc__)
+    ap.add_argument("--pair", nargs=3, action="append", required=True, metavar=("NAME", "CONTROL", "ARM"),
+                    help="a name and the control's and the arm's eval folders (repeatable)")
+    ap.add_argument("--what", default="", help="what the arm changes (recorded)")
+    ap.add_argument("--out", required=True, help="results JSON")
+    a = ap.parse_args(argv)
+    result = {"what": a.what, "gain": "control RMSE minus arm RMSE (positive: the arm is better), 95 % bootstrap "
+                                       "over SVBRDFs", "sets": {}}
+    for name, control, arm in a.pair:
+        result["sets"][name] = {"control": control, "arm": arm, **effects(Path(control), Path(arm))}
+        e = result["sets"][name]
+        print(name, " ".join(f"{c} {e[c]['gain']:+.4f} [{e[c]['ci95'][0]:+.4f}, {e[c]['ci95'][1]:+.4f}]"
+                             for c in COLUMNS))
+    write_results(a.out, result, a.note)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,43 @@
+"""benchmarks/paired_effects.py: the gain is the control's RMSE minus the arm's, paired view by view, its interval
+resamples whole SVBRDFs, and two evaluations of different views are refused."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import paired_effects as pe  # noqa: E402
+
+
+def _write(folder: Path, normal: np.ndarray, views=None, per_svbrdf: int = 4) -> Path:
+    folder.mkdir()
+    views = range(len(normal)) if views is None else views
+    rows = ["group,view,svbrdf,rerender,normal,diffuse,roughness,specular"]
+    rows += [f"all,{v},{v // per_svbrdf},0.05,{n},0.03,0.1,0.02" for v, n in zip(views, normal)]
+    (folder / "per_view.csv").write_text("\n".join(rows) + "\n")
+    return folder
+
+
+def test_a_better_arm_has_a_positive_gain_beyond_noise_and_the_same_views_give_zero(tmp_path):
+    rng = np.random.default_rng(0)
+    control = 0.03 + 0.01 * rng.random(40)
+    c = _write(tmp_path / "c", control)
+    a = _write(tmp_path / "a", control - 0.004)  # the arm is better by 0.004 on every view
+    e = pe.effects(c, a)
+    assert e["normal"]["gain"] == pytest.approx(0.004, abs=1e-5)
+    assert e["normal"]["ci95"][0] > 0 and e["normal"]["beyond_noise"] == "better"
+    assert e["diffuse"]["gain"] == 0 and e["diffuse"]["beyond_noise"] == "no"
+    assert e["svbrdfs"] == 10 and e["views"] == 40
+    worse = pe.effects(a, c)  # swapped: the same effect with the other sign
+    assert worse["normal"]["gain"] == pytest.approx(-0.004, abs=1e-5) and worse["normal"]["beyond_noise"] == "worse"
+
+
+def test_evaluations_of_different_views_are_refused(tmp_path):
+    c = _write(tmp_path / "c", np.full(8, 0.03))
+    a = _write(tmp_path / "a", np.full(8, 0.03), views=range(4, 12))
+    with pytest.raises(SystemExit, match="same views"):
+        pe.effects(c, a)
