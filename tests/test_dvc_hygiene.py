@@ -24,6 +24,10 @@ sys.path.insert(0, str(REPO / "scripts"))
 import params_yaml  # noqa: E402
 import stage_deps  # noqa: E402
 
+# one xdist worker for the module: the tiny `dvc repro` fixture (about 100 s on 2 cores) is made once, not once per
+# worker that draws one of its tests
+pytestmark = pytest.mark.xdist_group("dvc_hygiene")
+
 #: the tiny pipeline runs in process (no dask workers to start): a machine setting, which reruns nothing
 FAST = {**ENV, "SVGEN_WORKERS": "0"}
 STAGES = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
