@@ -67,6 +67,12 @@ class SampleConfig(StageConfig):
     an imported material's variants keep its measured relief. Normals come from the summed heights' slopes."""
     relief_cycles: float = Field(64.0, ge=1, le=128)
     """Centre of the extra relief's band, cycles per map width (about one octave wide)."""
+    relief_spread: float = Field(0.0, ge=0, le=2)
+    """Spread of the extra relief's RMS slope across variants: each variant's is ``relief`` x exp(relief_spread x z),
+    z ~ Normal(0, 1) from its own seed (0: every variant gets exactly ``relief``). At 1 the library's normal tilt
+    and slope octaves come closer to materials-cc0 (1.27x -> 0.99x and 1.04x -> 0.81x their noise floors), the
+    rest unchanged; the CV of slope magnitude does not move, since a CV ignores amplitude (realism.json
+    statistics_grain_spread_*). Not the default: no model has been trained on it yet."""
     flat_share: float = Field(0.35, ge=0, le=1)
     """Share of variants made with flat normals, colour, specular and roughness kept: the printed, polished or
     painted-over counterpart of a textured material, so that colour texture alone never means relief (#22;
@@ -83,6 +89,8 @@ class SampleConfig(StageConfig):
     RELIEF_KEYS: ClassVar[tuple[str, ...]] = ("relief", "relief_cycles")
     #: the relief-mode keys (flat and independent relief), likewise left out of the recorded config at 0.
     MODE_KEYS: ClassVar[tuple[str, ...]] = ("flat_share", "swap_share")
+    #: the amplitude spread of the extra relief, likewise left out of the recorded config at 0.
+    SPREAD_KEYS: ClassVar[tuple[str, ...]] = ("relief_spread",)
 
     @model_validator(mode="after")
     def _only_from_needs_stores(self) -> "SampleConfig":
@@ -96,7 +104,7 @@ class SampleConfig(StageConfig):
     def dropped_keys(self) -> tuple[str, ...]:
         """Keys left out of the recorded config because they are at their no-op value (same bytes as before)."""
         return ((self.RELIEF_KEYS if self.relief == 0 else ())
-                + tuple(k for k in self.MODE_KEYS if getattr(self, k) == 0))
+                + tuple(k for k in self.MODE_KEYS + self.SPREAD_KEYS if getattr(self, k) == 0))
 
 
 class BlendConfig(StageConfig):

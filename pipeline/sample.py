@@ -119,6 +119,7 @@ class Relief:
 
     Attributes:
         relief, relief_cycles: an extra band of relief added to every preset's variant (RMS slope, band centre).
+        relief_spread: log-normal spread of that RMS slope across variants (0: ``relief`` for every variant).
         flat_share: share of variants given flat normals (colour, specular and roughness kept).
         swap_share: share of variants whose relief is replaced by an independent height field.
     """
@@ -127,10 +128,19 @@ class Relief:
     relief_cycles: float = 8.0
     flat_share: float = 0.0
     swap_share: float = 0.0
+    relief_spread: float = 0.0
 
     @classmethod
     def of(cls, cfg: SampleConfig) -> "Relief":
-        return cls(cfg.relief, cfg.relief_cycles, cfg.flat_share, cfg.swap_share)
+        return cls(cfg.relief, cfg.relief_cycles, cfg.flat_share, cfg.swap_share, cfg.relief_spread)
+
+    def amplitude(self, seed: int) -> float:
+        """The extra relief's RMS slope for the variant of seed ``seed``: ``relief`` x exp(relief_spread x z), z one
+        normal draw of its own stream (key 1 << 20 | 3), so that a spread changes nothing else in the variant."""
+        if self.relief_spread <= 0:
+            return self.relief
+        z = np.random.default_rng(derive_seed(seed, "sample", (1 << 20) | 3)).standard_normal()
+        return float(self.relief * np.exp(self.relief_spread * z))
 
     def mode(self, seed: int) -> str:
         """"flat", "independent" or "own" for the variant of seed ``seed``: one uniform draw of its own stream
@@ -153,7 +163,7 @@ class Relief:
         if self.relief <= 0 or not modes:
             return m
         # key 1 << 20: no index of the sample stream reaches it, so the relief draws are independent of the variants
-        h = band_relief(m.size, derive_seed(seed, "sample", 1 << 20), self.relief_cycles, self.relief)
+        h = band_relief(m.size, derive_seed(seed, "sample", 1 << 20), self.relief_cycles, self.amplitude(seed))
         return materials.SVBRDF(add_height(m.normal, h), m.diffuse, m.specular, m.roughness)
 
 

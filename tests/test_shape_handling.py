@@ -228,3 +228,31 @@ def test_the_default_library_has_fine_grain_on_presets_variants_only():
     f = np.abs(np.fft.fft2(d, axes=(0, 1))) ** 2
     k = np.hypot(*np.meshgrid(np.fft.fftfreq(256) * 256, np.fft.fftfreq(256) * 256, indexing="ij"))
     assert f[k >= 32].sum() / f.sum() > 0.9
+
+
+def test_relief_spread_draws_each_variants_grain_amplitude_log_normally():
+    """``sample.relief_spread`` S: a variant's grain has RMS slope relief x exp(S z), z a standard normal of its own
+    seed, so the logs of the amplitudes over many variants have standard deviation S around log(relief); at 0 every
+    variant gets exactly ``relief`` (the default, whose bytes tests/data/same_bytes.json pins)."""
+    from pipeline.sample import Relief
+
+    flat = maps_of(np.zeros((64, 64), np.float32))
+
+    def grain_rms(rel: Relief, seed: int) -> float:
+        n = rel.apply(flat, seed).normal
+        return float(np.sqrt(((n[..., :2] / n[..., 2:3]) ** 2).sum(-1).mean()))
+
+    seeds = range(200)
+    fixed = np.log([grain_rms(Relief(0.06, 16.0), s) for s in seeds])
+    assert fixed.std() < 0.02 and abs(np.exp(fixed.mean()) - 0.06) < 0.006  # finite differences vs the normals
+    spread = np.log([grain_rms(Relief(0.06, 16.0, relief_spread=0.5), s) for s in seeds])
+    # 200 draws: the sample std of a normal with sigma 0.5 lies within 0.5 +- 0.075 (3 standard errors, 0.5/sqrt(400))
+    assert abs(spread.std() - 0.5) < 0.075, spread.std()
+    assert abs(spread.mean() - fixed.mean()) < 0.11  # 3 standard errors of the mean, 0.5 / sqrt(200)
+    # the spread draws from a stream of its own: the variant's mode and the grain's pattern are unchanged
+    a, b = Relief(0.06, 16.0, 0.3, 0.3), Relief(0.06, 16.0, 0.3, 0.3, relief_spread=0.5)
+    assert all(a.mode(s) == b.mode(s) for s in seeds)
+    na, nb = Relief(0.06, 16.0).apply(flat, 3).normal, Relief(0.06, 16.0, relief_spread=0.5).apply(flat, 3).normal
+    sa, sb = na[..., :2] / na[..., 2:3], nb[..., :2] / nb[..., 2:3]
+    assert abs(np.corrcoef(sa.ravel(), sb.ravel())[0, 1]) > 0.999  # the same field, another amplitude
+    assert abs(np.log(np.abs(sb).mean() / np.abs(sa).mean())) > 0.01
