@@ -73,6 +73,11 @@ class SampleConfig(StageConfig):
     and slope octaves come closer to materials-cc0 (1.27x -> 0.99x and 1.04x -> 0.81x their noise floors), the
     rest unchanged; the CV of slope magnitude does not move, since a CV ignores amplitude (realism.json
     statistics_grain_spread_*). Not the default: no model has been trained on it yet."""
+    relief_patches: float = Field(0.0, ge=0, le=2)
+    """Patchiness of the extra relief within a material: its height is multiplied by exp(p x g), g a smooth unit
+    Gaussian field (about 4 features per map) and p ~ Uniform(0, relief_patches) per variant, then rescaled to
+    the variant's RMS slope (0: uniform grain). A uniform grain on a flat variant has the CV of slope magnitude
+    of a Gaussian field (0.52) whatever its amplitude, where real materials spread 0.2-1.4; patches raise it."""
     flat_share: float = Field(0.35, ge=0, le=1)
     """Share of variants made with flat normals, colour, specular and roughness kept: the printed, polished or
     painted-over counterpart of a textured material, so that colour texture alone never means relief (#22;
@@ -89,8 +94,8 @@ class SampleConfig(StageConfig):
     RELIEF_KEYS: ClassVar[tuple[str, ...]] = ("relief", "relief_cycles")
     #: the relief-mode keys (flat and independent relief), likewise left out of the recorded config at 0.
     MODE_KEYS: ClassVar[tuple[str, ...]] = ("flat_share", "swap_share")
-    #: the amplitude spread of the extra relief, likewise left out of the recorded config at 0.
-    SPREAD_KEYS: ClassVar[tuple[str, ...]] = ("relief_spread",)
+    #: the amplitude spread and patchiness of the extra relief, likewise left out of the recorded config at 0.
+    SPREAD_KEYS: ClassVar[tuple[str, ...]] = ("relief_spread", "relief_patches")
 
     @model_validator(mode="after")
     def _only_from_needs_stores(self) -> "SampleConfig":

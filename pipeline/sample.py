@@ -26,7 +26,7 @@ import numpy as np
 
 import materials
 from materials.heights import independent_relief
-from materials.noise import add_height, band_relief
+from materials.noise import add_height, band_field, band_relief, height_slopes
 from materials.params import perturb
 
 from svcore.errors import ConfigError
@@ -112,6 +112,12 @@ def make_variant(spec: VariantSpec, sigma: float, size: int) -> tuple[materials.
     return preset.generate(params, size, map_seed), params
 
 
+def slope_rms(h: np.ndarray) -> float:
+    """RMS slope of a height map (H, W) in texture widths (the measure of :func:`materials.noise.band_relief`)."""
+    sx, sy = height_slopes(h.astype(np.float32))
+    return float(np.sqrt(np.mean(sx.astype(np.float64) ** 2 + sy.astype(np.float64) ** 2)))
+
+
 @dataclass(frozen=True)
 class Relief:
     """What the stage does to each variant's relief after the generator (the ``SampleConfig`` keys of the same
@@ -120,6 +126,7 @@ class Relief:
     Attributes:
         relief, relief_cycles: an extra band of relief added to every preset's variant (RMS slope, band centre).
         relief_spread: log-normal spread of that RMS slope across variants (0: ``relief`` for every variant).
+        relief_patches: largest log-amplitude modulation of the band within a variant (0: uniform).
         flat_share: share of variants given flat normals (colour, specular and roughness kept).
         swap_share: share of variants whose relief is replaced by an independent height field.
     """
@@ -129,10 +136,12 @@ class Relief:
     flat_share: float = 0.0
     swap_share: float = 0.0
     relief_spread: float = 0.0
+    relief_patches: float = 0.0
 
     @classmethod
     def of(cls, cfg: SampleConfig) -> "Relief":
-        return cls(cfg.relief, cfg.relief_cycles, cfg.flat_share, cfg.swap_share, cfg.relief_spread)
+        return cls(cfg.relief, cfg.relief_cycles, cfg.flat_share, cfg.swap_share, cfg.relief_spread,
+                   cfg.relief_patches)
 
     def amplitude(self, seed: int) -> float:
         """The extra relief's RMS slope for the variant of seed ``seed``: ``relief`` x exp(relief_spread x z), z one
@@ -141,6 +150,14 @@ class Relief:
             return self.relief
         z = np.random.default_rng(derive_seed(seed, "sample", (1 << 20) | 3)).standard_normal()
         return float(self.relief * np.exp(self.relief_spread * z))
+
+    def patchy(self, h: np.ndarray, seed: int) -> np.ndarray:
+        """The band ``h`` (H, W) with its amplitude varying over the map: h x exp(p g), g a unit smooth field at 4
+        cycles per map and p ~ Uniform(0, relief_patches) (streams 1 << 20 | 4 and | 5), rescaled to h's RMS slope."""
+        p = self.relief_patches * np.random.default_rng(derive_seed(seed, "sample", (1 << 20) | 4)).random()
+        g = band_field(h.shape[0], derive_seed(seed, "sample", (1 << 20) | 5), 4.0).astype(np.float64)
+        out = h * np.exp(p * (g - g.mean()) / max(float(g.std()), 1e-12))
+        return (out * (slope_rms(h) / max(slope_rms(out), 1e-12))).astype(np.float32)
 
     def mode(self, seed: int) -> str:
         """"flat", "independent" or "own" for the variant of seed ``seed``: one uniform draw of its own stream
@@ -164,6 +181,8 @@ class Relief:
             return m
         # key 1 << 20: no index of the sample stream reaches it, so the relief draws are independent of the variants
         h = band_relief(m.size, derive_seed(seed, "sample", 1 << 20), self.relief_cycles, self.amplitude(seed))
+        if self.relief_patches > 0:
+            h = self.patchy(h, seed)
         return materials.SVBRDF(add_height(m.normal, h), m.diffuse, m.specular, m.roughness)
 
 
