@@ -25,8 +25,8 @@ from typing import ClassVar
 import numpy as np
 
 import materials
-from materials.heights import independent_relief
-from materials.noise import add_height, band_field, band_relief, height_slopes
+from materials.heights import independent_relief, slope_rms
+from materials.noise import add_height, band_field, band_relief
 from materials.params import perturb
 
 from svcore.errors import ConfigError
@@ -112,12 +112,6 @@ def make_variant(spec: VariantSpec, sigma: float, size: int) -> tuple[materials.
     return preset.generate(params, size, map_seed), params
 
 
-def slope_rms(h: np.ndarray) -> float:
-    """RMS slope of a height map (H, W) in texture widths (the measure of :func:`materials.noise.band_relief`)."""
-    sx, sy = height_slopes(h.astype(np.float32))
-    return float(np.sqrt(np.mean(sx.astype(np.float64) ** 2 + sy.astype(np.float64) ** 2)))
-
-
 @dataclass(frozen=True)
 class Relief:
     """What the stage does to each variant's relief after the generator (the ``SampleConfig`` keys of the same
@@ -157,7 +151,7 @@ class Relief:
         p = self.relief_patches * np.random.default_rng(derive_seed(seed, "sample", (1 << 20) | 4)).random()
         g = band_field(h.shape[0], derive_seed(seed, "sample", (1 << 20) | 5), 4.0).astype(np.float64)
         out = h * np.exp(p * (g - g.mean()) / max(float(g.std()), 1e-12))
-        return (out * (slope_rms(h) / max(slope_rms(out), 1e-12))).astype(np.float32)
+        return (out * (slope_rms(h) / max(slope_rms(out.astype(np.float32)), 1e-12))).astype(np.float32)
 
     def mode(self, seed: int) -> str:
         """"flat", "independent" or "own" for the variant of seed ``seed``: one uniform draw of its own stream
