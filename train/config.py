@@ -122,6 +122,10 @@ class OptimConfig(ConfigModel):
     render_weight: float = Field(1.0, ge=0)
     """weight of the rendering loss (paper §4.3); 0 with ``map_l1`` > 0 is the paper's L1-on-the-maps comparison
     (no rendering term is computed at all)."""
+    grazing_lights: float = Field(0.0, ge=0, le=1)
+    """share of the rendering loss's diffuse lights redrawn near the horizon (elevation 4-15 degrees,
+    ``train.loss.GRAZING_DEG``), where relief changes the shading most (#22: "more grazing lights show relief
+    more"); 0 = the paper's cosine-hemisphere lights, the same draws as before the key existed."""
     map_l1: float = Field(0.0, ge=0)
     """weight of an L1 term on the packed maps added to the rendering loss (0 = the 2018 paper's loss alone; the
     2019 follow-up, Deschaintre et al. "Flexible SVBRDF capture", mixes both)."""

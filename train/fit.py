@@ -215,7 +215,8 @@ class Trainer:
         """One step on this rank's host batch; returns (loss of the global batch, gradient norm)."""
         # all ranks draw the global batch's configurations (same generator state everywhere) and keep their rows
         lo = self.world.rank * self.batch
-        configs = sample_configs(self.global_batch, self.gen).rows(lo, lo + self.batch)
+        configs = sample_configs(self.global_batch, self.gen, grazing=self.cfg.optim.grazing_lights)
+        configs = configs.rows(lo, lo + self.batch)
         loss, norm = train_step(self.model, self.opt, self.loss_fn, self.place.to(image), self.place.to(maps),
                                 self.gen, self.cfg.optim, step, place=self.place, scaler=self.scaler, configs=configs)
         return mean_over_ranks(loss, self.world, self.place.device), norm
