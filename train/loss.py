@@ -28,8 +28,8 @@ R1_LOW, R1_HIGH = 0.001, 0.95
 DIST_MU, DIST_SIGMA = 0.5, 0.75
 LOG_EPS = 0.01
 #: elevation range (degrees) of a grazing diffuse light (``optim.grazing_lights``): the cosine sampler puts a light
-#: lower than 15 degrees in 1 draw of 20, and none lower than 13 (R1_HIGH). Below 15 degrees a tilt t changes N·L/l_z
-#: by about t·cot(elevation) >= 3.7 t, against about t at the zenith: relief shows most where the light grazes.
+#: lower than 15 degrees in 1 draw of 56, and none lower than 13 (R1_HIGH). Below 15 degrees a tilt t changes N·L/l_z
+#: by about t·cot(elevation) >= 3.7 t, against t at 45 degrees and t²/2 at the zenith.
 GRAZING_DEG = (4.0, 15.0)
 
 
