@@ -141,7 +141,9 @@ def test_sigkill_during_a_stage_then_repro_gives_the_same_outputs(project, stage
         ck_step = int(torch.load(project / "runs/train/checkpoint.pt", weights_only=False)["step"])
     else:
         array, ndim = CHUNKED[stage]
-        finished = sorted(int(m.name) for m in marker.iterdir())
+        # a marker is named by its chunk id; 'N.tmp' is one the kill caught being written (not finished: the
+        # store's pending() rewrites that chunk), so only whole ids count
+        finished = sorted(int(m.name) for m in marker.iterdir() if m.name.isdigit())
         kept = chunk_stats(marker.parent, finished, array, ndim)
 
     sh(["dvc", "repro", stage], project)
