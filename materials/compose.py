@@ -33,15 +33,27 @@ def rgb_fixed(prefix: str, rgb_: tuple[float, float, float]) -> dict[str, float]
 def lerp(a, b, t):
     """Linear blend; ``t`` (H, W) broadcasts over the channel axis of (H, W, 3) maps or (3,) colours."""
     t = np.asarray(t, F32)
+    a, b = np.asarray(a, F32), np.asarray(b, F32)
+    if t.ndim == 2 and {a.ndim, b.ndim} <= {1, 3} and a.shape[-1] == b.shape[-1]:
+        # channel by channel: broadcasting t[..., None] runs numpy's inner loop over the axis of length 3
+        s = 1 - t
+        out = np.empty(t.shape + a.shape[-1:], F32)
+        for c in range(a.shape[-1]):
+            np.add(a[..., c] * s, b[..., c] * t, out=out[..., c])
+        return out
     if t.ndim == 2:
         t = t[..., None]
-    return (np.asarray(a, F32) * (1 - t) + np.asarray(b, F32) * t).astype(F32)
+    return (a * (1 - t) + b * t).astype(F32)
 
 
 def tint(color: np.ndarray, field: np.ndarray, amount: float) -> np.ndarray:
     """Colour (3,) or (H, W, 3) modulated by a zero-mean field (H, W): ``color * exp(amount * field)`` -> (H, W, 3)."""
     c = np.asarray(color, F32)
-    return (c * np.exp(F32(amount) * field)[..., None]).astype(F32)
+    e = np.exp(F32(amount) * field)
+    out = np.empty(e.shape + c.shape[-1:], F32)
+    for i in range(c.shape[-1]):  # by channel, as in lerp
+        out[..., i] = c[..., i] * e
+    return out
 
 
 def slope_scaled(h: np.ndarray, slope_rms: float) -> np.ndarray:

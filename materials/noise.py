@@ -106,6 +106,7 @@ def white_spectrum(size: int, seed: int) -> np.ndarray:
         (size, size) complex64 in FFT order; real and imaginary parts i.i.d., zero mean, unit variance.
     """
     c = np.zeros((size, size), np.complex64)
+    parts = c.view(F32).reshape(size, size, 2)  # real and imaginary planes, written in place (no complex temporaries)
     levels = [b for b in (64, 128, 256, 512, 1024) if b <= size]
     if levels[-1] != size:  # sizes between powers of two: one last ring of their own
         levels.append(size)
@@ -115,19 +116,46 @@ def white_spectrum(size: int, seed: int) -> np.ndarray:
         # uniform with unit variance: cheaper than normals, and the filtered sum is Gaussian anyway (CLT)
         w = g.random((2, b, b), dtype=F32)
         w -= F32(0.5)
-        w *= F32(np.sqrt(12.0))
+        w *= _SQRT12
         o = (size - b) // 2
-        blk = w[0] + 1j * w[1]
-        if inner:  # keep the lower-frequency block drawn at the previous level
-            i0 = (b - inner) // 2
-            blk[i0:i0 + inner, i0:i0 + inner] = c[o + i0:o + i0 + inner, o + i0:o + i0 + inner]
-        c[o:o + b, o:o + b] = blk
+        i0, i1 = (b - inner) // 2, (b - inner) // 2 + inner
+        for part in range(2):
+            dst, src = parts[o:o + b, o:o + b, part], w[part]
+            # the whole block, except the lower-frequency square kept from the previous level (the block's draws
+            # there are made and dropped: each level's stream stays the same whatever the size)
+            dst[:i0], dst[i1:] = src[:i0], src[i1:]
+            dst[i0:i1, :i0], dst[i0:i1, i1:] = src[i0:i1, :i0], src[i0:i1, i1:]
         inner = b
     return np.fft.ifftshift(c)
 
 
+_SQRT12 = F32(np.sqrt(12.0))
+
+
 def _amplitude(size, scale, beta, aniso, angle, gauss, detail):
+    """Filter amplitude on the lattice in FFT order, (size, size) float32 of unit sum of squares.
+
+    The filter is even, amp(-k) == amp(k) exactly (negating k negates a and b exactly), so for even sizes rows
+    0..size/2 are computed and the others mirrored, except the Nyquist column (kx = -size/2 has no +size/2 on the
+    lattice), computed as well: half the power and exp evaluations, the same bytes.
+    """
     kx, ky = _freqs(size)
+    if size % 2:
+        amp = _amplitude_at(kx, ky, scale, beta, aniso, angle, gauss, detail)
+    else:
+        n2 = size // 2
+        top = _amplitude_at(kx[:n2 + 1], ky[:n2 + 1], scale, beta, aniso, angle, gauss, detail)
+        # row r > size/2 is row size - r with columns j -> (size - j) % size
+        bottom = top[n2 - 1:0:-1][:, _mirror_columns(size)]
+        bottom[:, n2] = _amplitude_at(kx[n2 + 1:, n2], ky[n2 + 1:, n2], scale, beta, aniso, angle, gauss, detail)
+        amp = np.concatenate([top, bottom])
+    amp[0, 0] = 0.0  # zero mean
+    tot = np.sqrt(np.sum(amp.astype(np.float64) ** 2))
+    return (amp / max(tot, 1e-30)).astype(F32)
+
+
+def _amplitude_at(kx, ky, scale, beta, aniso, angle, gauss, detail):
+    """The unnormalised filter of :func:`_amplitude` at frequencies ``kx``, ``ky`` (any one shape), float64."""
     ca, sa = np.cos(angle), np.sin(angle)
     a = kx * ca + ky * sa  # along `angle`
     b = -kx * sa + ky * ca
@@ -140,9 +168,13 @@ def _amplitude(size, scale, beta, aniso, angle, gauss, detail):
         amp = (f0 * f0 + f2) ** (-beta / 4.0)
     if detail is not None:  # finest feature size, in texture widths
         amp = amp * np.exp(-f2 * (detail * detail))
-    amp[0, 0] = 0.0  # zero mean
-    tot = np.sqrt(np.sum(amp.astype(np.float64) ** 2))
-    return (amp / max(tot, 1e-30)).astype(F32)
+    return amp
+
+
+@lru_cache(maxsize=8)
+def _mirror_columns(size: int) -> np.ndarray:
+    """Column index of -k for each column k of the FFT-order lattice: (size - j) % size, (size,) int."""
+    return (size - np.arange(size)) % size
 
 
 def fbm_pair(size: int, seed: int, scale: float, beta: float = 3.0, aniso: float = 1.0, angle: float = 0.0,
@@ -217,8 +249,8 @@ def height_to_normal(h: np.ndarray, strength: float = 1.0) -> np.ndarray:
     """
     n = h.shape[0]
     k = F32(strength * n / 2.0)  # 1 / (2 px) with px = 1/n texture widths
-    dhdx = (np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) * k
-    dhdy = -(np.roll(h, -1, axis=0) - np.roll(h, 1, axis=0)) * k
+    dhdx = _wrapped_difference(h, 1) * k
+    dhdy = -_wrapped_difference(h, 0) * k
     out = np.empty(h.shape + (3,), F32)
     inv = 1.0 / np.sqrt(dhdx * dhdx + dhdy * dhdy + 1.0)
     out[..., 0] = -dhdx * inv
@@ -239,22 +271,47 @@ def band_field(size: int, seed: int, cycles: float, width: float = 0.35) -> np.n
     Returns:
         (size, size) float32, zero mean, unit variance (expected).
     """
+    return sfft.ifft2(white_spectrum(size, seed) * _band_amplitude(size, float(cycles), float(width)),
+                      norm="forward", workers=1).real.astype(F32)
+
+
+@lru_cache(maxsize=32)
+def _band_amplitude(size: int, cycles: float, width: float) -> np.ndarray:
+    """The filter of :func:`band_field`, (size, size) float32 in FFT order, unit sum of squares; read-only (cached:
+    most bands are constants of a class or of the stage's relief, so a variant rarely computes its own)."""
     kx, ky = _freqs(size)
     f = np.sqrt(kx * kx + ky * ky)
     with np.errstate(divide="ignore"):
-        amp = np.exp(-0.5 * (np.log(np.maximum(f, 1e-6) / float(cycles)) / width) ** 2)
+        amp = np.exp(-0.5 * (np.log(np.maximum(f, 1e-6) / cycles) / width) ** 2)
     amp[0, 0] = 0.0
     amp = (amp / max(float(np.sqrt(np.sum(amp.astype(np.float64) ** 2))), 1e-30)).astype(F32)
-    return sfft.ifft2(white_spectrum(size, seed) * amp, norm="forward", workers=1).real.astype(F32)
+    amp.flags.writeable = False
+    return amp
 
 
 def height_slopes(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(dh/dx, dh/dy) of a periodic height map (H, W) in texture widths, by the wrapped central differences of
     :func:`height_to_normal`; y points up in the image, so dh/dy = -dh/drow. Returns two (H, W) float32."""
     k = F32(h.shape[0] / 2.0)
-    dhdx = (np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) * k
-    dhdy = -(np.roll(h, -1, axis=0) - np.roll(h, 1, axis=0)) * k
+    dhdx = _wrapped_difference(h, 1) * k
+    dhdy = -_wrapped_difference(h, 0) * k
     return dhdx.astype(F32), dhdy.astype(F32)
+
+
+def _wrapped_difference(h: np.ndarray, axis: int) -> np.ndarray:
+    """h[i + 1] - h[i - 1] along ``axis`` (0 or 1) of an (H, W) map, wrapping around: the value of
+    ``np.roll(h, -1, axis) - np.roll(h, 1, axis)`` without its two copies of ``h``."""
+    h = np.asarray(h)
+    d = np.empty(h.shape, np.result_type(h, h))
+    if axis == 1:
+        np.subtract(h[:, 2:], h[:, :-2], out=d[:, 1:-1])
+        np.subtract(h[:, 1], h[:, -1], out=d[:, 0])
+        np.subtract(h[:, 0], h[:, -2], out=d[:, -1])
+    else:
+        np.subtract(h[2:], h[:-2], out=d[1:-1])
+        np.subtract(h[1], h[-1], out=d[0])
+        np.subtract(h[0], h[-2], out=d[-1])
+    return d
 
 
 def add_height(normal: np.ndarray, h: np.ndarray) -> np.ndarray:

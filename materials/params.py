@@ -71,14 +71,22 @@ def perturb(preset, k: int, sigma: float, rng: np.random.Generator) -> dict[str,
     """
     from scipy.stats import truncnorm  # scipy on first use: importing materials stays light
 
+    # one vectorised draw for all the drawn parameters: the same uniforms in the same order as one draw per
+    # parameter (truncnorm draws U(0, 1) and inverts its cdf elementwise), at a quarter of the cost
+    drawn = [p for p in preset.exposed if not (k == 0 or p.high == p.low)]
+    values = {}
+    if drawn:
+        if not sigma > 0:
+            raise ValueError(f"perturbation sigma must be > 0, got {sigma}")
+        default = np.array([p.default for p in drawn], float)
+        low, high = np.array([p.low for p in drawn], float), np.array([p.high for p in drawn], float)
+        scale = sigma * (high - low)
+        v = truncnorm.rvs((low - default) / scale, (high - default) / scale, loc=default, scale=scale,
+                          random_state=rng)
+        values = dict(zip((p.name for p in drawn), np.atleast_1d(v).tolist()))
     out = {}
     for p in preset.exposed:
-        if k == 0 or p.high == p.low:
-            v = p.default
-        else:
-            scale = sigma * (p.high - p.low)
-            a, b = (p.low - p.default) / scale, (p.high - p.default) / scale
-            v = float(truncnorm.rvs(a, b, loc=p.default, scale=scale, random_state=rng))
+        v = values.get(p.name, p.default)
         if p.kind == "int":
             v = float(np.clip(np.round(v), p.low, p.high))
         out[p.name] = float(np.clip(v, p.low, p.high))

@@ -42,10 +42,20 @@ def blend_normals(na: np.ndarray, nb: np.ndarray, w: np.ndarray | float) -> np.n
     Returns:
         (H, W, 3) unit normals with z > 0.
     """
-    sa = na[..., :2] / np.maximum(na[..., 2:3], MIN_NZ)
-    sb = nb[..., :2] / np.maximum(nb[..., 2:3], MIN_NZ)
-    s = w * sa + (1.0 - w) * sb
-    return normalize(np.concatenate([s, np.ones_like(s[..., :1])], axis=-1))
+    wa = w[..., 0] if np.ndim(w) == 3 else w
+    # channel planes, not (H, W, 2) slices: numpy's inner loop would otherwise run over an axis of length 2
+    s = []
+    for c in range(2):
+        sa = na[..., c] / np.maximum(na[..., 2], MIN_NZ)
+        sb = nb[..., c] / np.maximum(nb[..., 2], MIN_NZ)
+        s.append(np.asarray(wa * sa + (1.0 - wa) * sb, np.float32))
+    # normalize((s_x, s_y, 1)) by planes: the same float32 operations as materials.maps.normalize
+    length = np.maximum(np.sqrt(s[0] * s[0] + s[1] * s[1] + np.float32(1.0) * np.float32(1.0)), np.float32(1e-8))
+    out = np.empty(length.shape + (3,), np.float32)
+    np.divide(s[0], length, out=out[..., 0])
+    np.divide(s[1], length, out=out[..., 1])
+    np.divide(np.float32(1.0), length, out=out[..., 2])
+    return out
 
 
 def mask(size: int, seed: int, alpha: float, scale: float) -> np.ndarray:
