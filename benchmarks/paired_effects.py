@@ -6,6 +6,14 @@ the same seed on two libraries give the same views of every evaluated store, so 
 
     python3 benchmarks/paired_effects.py --pair real_crop1 CONTROL/eval_crop1 ARM/eval_crop1 \\
         --pair heldout CONTROL/eval_heldout ARM/eval_heldout_other --out benchmarks/results/effects.json
+
+The bootstrap interval resamples SVBRDFs of one pair of runs: it leaves out training noise (weights, data order,
+loss draws), which ``effects_seed.json`` measured at the same size as several claimed effects. ``--seed-noise
+effects_seed.json`` (a results file of this script whose arm only changes the training seed) adds it: per set of
+the same name and column, the seed pair's gain g_s is one draw of the training noise of a difference, whose standard
+deviation is estimated as |g_s| sqrt(pi / 2) (mean absolute deviation of a normal); 1.96 of it is added to each
+half of the bootstrap interval in quadrature (``ci95_with_seed``, ``beyond_seed_noise``). One seed pair estimates
+that deviation poorly: a screen against claiming noise, not a calibrated interval.
 """
 from __future__ import annotations
 
@@ -49,20 +57,46 @@ def effects(control: Path, arm: Path) -> dict:
     return out
 
 
+def with_seed_noise(e: dict, seed_set: dict) -> None:
+    """Add ``seed_allowance``, ``ci95_with_seed`` and ``beyond_seed_noise`` to each column of the set ``e`` from the
+    same set of a seed pair's results (``seed_set``), in place (module docstring)."""
+    for c in COLUMNS:
+        col = e[c]
+        allowance = 1.96 * abs(seed_set[c]["gain"]) * float(np.sqrt(np.pi / 2))
+        lo = col["gain"] - float(np.hypot(col["gain"] - col["ci95"][0], allowance))
+        hi = col["gain"] + float(np.hypot(col["ci95"][1] - col["gain"], allowance))
+        col["seed_allowance"] = round(allowance, 5)
+        col["ci95_with_seed"] = [round(lo, 5), round(hi, 5)]
+        col["beyond_seed_noise"] = "better" if lo > 0 else "worse" if hi < 0 else "no"
+
+
 def main(argv=None) -> None:
     ap = parser(__doc__)
     ap.add_argument("--pair", nargs=3, action="append", required=True, metavar=("NAME", "CONTROL", "ARM"),
                     help="a name and the control's and the arm's eval folders (repeatable)")
     ap.add_argument("--what", default="", help="what the arm changes (recorded)")
     ap.add_argument("--out", required=True, help="results JSON")
+    ap.add_argument("--seed-noise", default=None, metavar="EFFECTS_JSON",
+                    help="a seed pair's results of this script: widen each set's intervals by its training noise")
     a = ap.parse_args(argv)
+    seed = None
+    if a.seed_noise:
+        import json
+
+        seed = json.loads(Path(a.seed_noise).read_text())["sets"]
     result = {"what": a.what, "gain": "control RMSE minus arm RMSE (positive: the arm is better), 95 % bootstrap "
                                        "over SVBRDFs", "sets": {}}
     for name, control, arm in a.pair:
         result["sets"][name] = {"control": control, "arm": arm, **effects(Path(control), Path(arm))}
         e = result["sets"][name]
+        if seed is not None:
+            if name not in seed:
+                raise SystemExit(f"--seed-noise {a.seed_noise} has no set {name!r} (it has {', '.join(seed)})")
+            with_seed_noise(e, seed[name])
+            result["seed_noise"] = a.seed_noise
         print(name, " ".join(f"{c} {e[c]['gain']:+.4f} [{e[c]['ci95'][0]:+.4f}, {e[c]['ci95'][1]:+.4f}]"
-                             for c in COLUMNS))
+                             + (f" seed-widened [{e[c]['ci95_with_seed'][0]:+.4f}, {e[c]['ci95_with_seed'][1]:+.4f}]"
+                                if seed is not None else "") for c in COLUMNS))
     write_results(a.out, result, a.note)
 
 

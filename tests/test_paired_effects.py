@@ -41,3 +41,32 @@ def test_evaluations_of_different_views_are_refused(tmp_path):
     a = _write(tmp_path / "a", np.full(8, 0.03), views=range(4, 12))
     with pytest.raises(SystemExit, match="same views"):
         pe.effects(c, a)
+
+
+def test_seed_noise_widens_the_interval_by_the_seed_pairs_gain(tmp_path):
+    """An effect beyond the bootstrap interval but smaller than the training-seed noise is not beyond seed noise;
+    one several times larger is; no seed noise (a seed pair that changed nothing) leaves the interval as it was."""
+    rng = np.random.default_rng(0)
+    control = 0.03 + 0.01 * rng.random(40)
+    c = _write(tmp_path / "c", control)
+    small, large = _write(tmp_path / "s", control - 0.002), _write(tmp_path / "l", control - 0.02)
+    seed = {"normal": {"gain": -0.003}, **{k: {"gain": 0.0} for k in pe.COLUMNS if k != "normal"}}
+    e_small, e_large, e_none = pe.effects(c, small), pe.effects(c, large), pe.effects(c, small)
+    pe.with_seed_noise(e_small, seed)
+    pe.with_seed_noise(e_large, seed)
+    pe.with_seed_noise(e_none, {k: {"gain": 0.0} for k in pe.COLUMNS})
+    assert e_small["normal"]["beyond_noise"] == "better" and e_small["normal"]["beyond_seed_noise"] == "no"
+    assert e_small["normal"]["seed_allowance"] == pytest.approx(1.96 * 0.003 * np.sqrt(np.pi / 2), abs=1e-5)
+    assert e_large["normal"]["beyond_seed_noise"] == "better"
+    assert e_none["normal"]["ci95_with_seed"] == pytest.approx(e_none["normal"]["ci95"], abs=1e-5)
+    assert e_none["normal"]["beyond_seed_noise"] == "better"
+
+
+def test_seed_noise_without_the_set_is_refused(tmp_path):
+    import json
+
+    c = _write(tmp_path / "c", np.full(8, 0.03))
+    seed = tmp_path / "seed.json"
+    seed.write_text(json.dumps({"sets": {"other": {}}}))
+    with pytest.raises(SystemExit, match="no set 'x'"):
+        pe.main(["--pair", "x", str(c), str(c), "--seed-noise", str(seed), "--out", str(tmp_path / "o.json")])
