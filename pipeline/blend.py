@@ -74,7 +74,7 @@ def mask(size: int, seed: int, alpha: float, scale: float) -> np.ndarray:
 
 def blend_pair(a: SVBRDF, b: SVBRDF, weights: dict[str, np.ndarray | float]) -> SVBRDF:
     """Blend two SVBRDFs with a weight (scalar or (H, W, 1)) per map."""
-    out = {k: (weights[k] * getattr(a, k) + (1.0 - weights[k]) * getattr(b, k)).astype(np.float32)
+    out = {k: np.asarray(weights[k] * getattr(a, k) + (1.0 - weights[k]) * getattr(b, k), np.float32)
            for k in MAP_NAMES if k != "normal"}
     out["normal"] = blend_normals(a.normal, b.normal, weights["normal"])
     return SVBRDF(**out)
