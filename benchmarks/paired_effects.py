@@ -9,15 +9,17 @@ the same seed on two libraries give the same views of every evaluated store, so 
 
 The bootstrap interval resamples SVBRDFs of one pair of runs: it leaves out training noise (weights, data order,
 loss draws), which ``effects_seed.json`` measured at the same size as several claimed effects. ``--seed-noise
-effects_seed.json`` (a results file of this script whose arm only changes the training seed) adds it: per set of
-the same name and column, the seed pair's gain g_s is one draw of the training noise of a difference, whose standard
-deviation is estimated as |g_s| sqrt(pi / 2) (mean absolute deviation of a normal); 1.96 of it is added to each
-half of the bootstrap interval in quadrature (``ci95_with_seed``, ``beyond_seed_noise``). One seed pair estimates
-that deviation poorly: a screen against claiming noise, not a calibrated interval.
+FILE`` (repeatable: results files of this script whose arms only change the training seed of one shared control)
+adds it. Per set of the same name and column, the seed pairs' gains g_1 .. g_k place the k + 1 runs at 0, -g_1 ..
+-g_k; their sample standard deviation s (ddof 1) estimates one run's training noise, so a difference of two runs
+has sigma_d = sqrt(2) s (for one pair: |g_1|), and 1.96 sigma_d is added to each half of the bootstrap interval in
+quadrature (``ci95_with_seed``, ``beyond_seed_noise``). A few seeds estimate sigma_d poorly: a screen against
+claiming noise, not a calibrated interval.
 """
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -57,12 +59,19 @@ def effects(control: Path, arm: Path) -> dict:
     return out
 
 
-def with_seed_noise(e: dict, seed_set: dict) -> None:
+def seed_sigma(seed_sets: list[dict], column: str) -> float:
+    """sigma_d of ``column`` from the same set of k seed pairs sharing one control (module docstring)."""
+    runs = [0.0] + [-float(ss[column]["gain"]) for ss in seed_sets]
+    return float(np.sqrt(2.0) * np.std(runs, ddof=1))
+
+
+def with_seed_noise(e: dict, seed_sets: dict | list[dict]) -> None:
     """Add ``seed_allowance``, ``ci95_with_seed`` and ``beyond_seed_noise`` to each column of the set ``e`` from the
-    same set of a seed pair's results (``seed_set``), in place (module docstring)."""
+    same set of one or more seed pairs' results (``seed_sets``), in place (module docstring)."""
+    seed_sets = [seed_sets] if isinstance(seed_sets, dict) else list(seed_sets)
     for c in COLUMNS:
         col = e[c]
-        allowance = 1.96 * abs(seed_set[c]["gain"]) * float(np.sqrt(np.pi / 2))
+        allowance = 1.96 * seed_sigma(seed_sets, c)
         lo = col["gain"] - float(np.hypot(col["gain"] - col["ci95"][0], allowance))
         hi = col["gain"] + float(np.hypot(col["ci95"][1] - col["gain"], allowance))
         col["seed_allowance"] = round(allowance, 5)
@@ -76,27 +85,25 @@ def main(argv=None) -> None:
                     help="a name and the control's and the arm's eval folders (repeatable)")
     ap.add_argument("--what", default="", help="what the arm changes (recorded)")
     ap.add_argument("--out", required=True, help="results JSON")
-    ap.add_argument("--seed-noise", default=None, metavar="EFFECTS_JSON",
-                    help="a seed pair's results of this script: widen each set's intervals by its training noise")
+    ap.add_argument("--seed-noise", action="append", default=[], metavar="EFFECTS_JSON",
+                    help="a seed pair's results of this script (repeatable: pairs of one control): widen each set's "
+                         "intervals by the training noise they show")
     a = ap.parse_args(argv)
-    seed = None
-    if a.seed_noise:
-        import json
-
-        seed = json.loads(Path(a.seed_noise).read_text())["sets"]
+    seeds = [(f, json.loads(Path(f).read_text())["sets"]) for f in a.seed_noise]
     result = {"what": a.what, "gain": "control RMSE minus arm RMSE (positive: the arm is better), 95 % bootstrap "
                                        "over SVBRDFs", "sets": {}}
     for name, control, arm in a.pair:
         result["sets"][name] = {"control": control, "arm": arm, **effects(Path(control), Path(arm))}
         e = result["sets"][name]
-        if seed is not None:
-            if name not in seed:
-                raise SystemExit(f"--seed-noise {a.seed_noise} has no set {name!r} (it has {', '.join(seed)})")
-            with_seed_noise(e, seed[name])
-            result["seed_noise"] = a.seed_noise
+        if seeds:
+            for f, sets in seeds:
+                if name not in sets:
+                    raise SystemExit(f"--seed-noise {f} has no set {name!r} (it has {', '.join(sets)})")
+            with_seed_noise(e, [sets[name] for _, sets in seeds])
+            result["seed_noise"] = [f for f, _ in seeds]
         print(name, " ".join(f"{c} {e[c]['gain']:+.4f} [{e[c]['ci95'][0]:+.4f}, {e[c]['ci95'][1]:+.4f}]"
                              + (f" seed-widened [{e[c]['ci95_with_seed'][0]:+.4f}, {e[c]['ci95_with_seed'][1]:+.4f}]"
-                                if seed is not None else "") for c in COLUMNS))
+                                if seeds else "") for c in COLUMNS))
     write_results(a.out, result, a.note)
 
 

@@ -56,10 +56,24 @@ def test_seed_noise_widens_the_interval_by_the_seed_pairs_gain(tmp_path):
     pe.with_seed_noise(e_large, seed)
     pe.with_seed_noise(e_none, {k: {"gain": 0.0} for k in pe.COLUMNS})
     assert e_small["normal"]["beyond_noise"] == "better" and e_small["normal"]["beyond_seed_noise"] == "no"
-    assert e_small["normal"]["seed_allowance"] == pytest.approx(1.96 * 0.003 * np.sqrt(np.pi / 2), abs=1e-5)
+    assert e_small["normal"]["seed_allowance"] == pytest.approx(1.96 * 0.003, abs=1e-5)  # one pair: sigma_d = |g|
     assert e_large["normal"]["beyond_seed_noise"] == "better"
     assert e_none["normal"]["ci95_with_seed"] == pytest.approx(e_none["normal"]["ci95"], abs=1e-5)
     assert e_none["normal"]["beyond_seed_noise"] == "better"
+
+
+def test_more_seed_pairs_estimate_the_noise_from_all_runs():
+    """Runs at 0, -g_1, -g_2: sigma_d = sqrt(2) x their standard deviation; a second pair that agrees with the
+    control shrinks the allowance, one that disagrees as much as the first keeps it near."""
+    g = 0.003
+    base = {c: {"gain": 0.0} for c in pe.COLUMNS}
+    one = [{**base, "normal": {"gain": g}}]
+    agree = one + [{**base, "normal": {"gain": 0.0}}]
+    spread = one + [{**base, "normal": {"gain": -g}}]
+    assert pe.seed_sigma(one, "normal") == pytest.approx(g)
+    assert pe.seed_sigma(agree, "normal") == pytest.approx(np.sqrt(2) * np.std([0, -g, 0], ddof=1))
+    assert pe.seed_sigma(agree, "normal") < pe.seed_sigma(one, "normal") < pe.seed_sigma(spread, "normal") * 1.01
+    assert pe.seed_sigma(agree, "diffuse") == 0.0
 
 
 def test_seed_noise_without_the_set_is_refused(tmp_path):
