@@ -7,6 +7,11 @@ is (N - small) / (wall_N - wall_small): the per-blend work without the start of 
 ``--against DIR`` measures another checkout's code the same way in the same call (its ``PYTHONPATH``), rounds
 interleaved, so that a speed change is compared on one machine in one state.
 
+The stage's wall and CPU include the zstd write, dask and the store: on a 2-core VM they vary by about 10 % from
+run to run, more than a change to the blend arithmetic moves them. ``compute`` therefore also times the blend
+itself in one process per code (``--compute`` blends after a warm-up, CPU time, no write): draw, read and decode
+both parents, blend, validate, encode.
+
 Issue #24's aim: >= 200 blends/s on 2 cores.
 
     python3 benchmarks/bench_blend.py                          # -> benchmarks/results/blend.json
@@ -17,6 +22,8 @@ from __future__ import annotations
 import os
 import shutil
 import statistics
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -24,6 +31,31 @@ from bench_paper_scale import run_stage
 from harness import RESULTS, ROOT, parser, write_results
 
 AIM = 200.0
+
+# one process per code (its PYTHONPATH): CPU ms per blend of draw + make_blend + validate + encode_maps, no write
+COMPUTE = """
+import sys, time
+from pipeline.blend import draw, make_blend
+from pipeline.config import BlendConfig
+from storage.svbrdf_store import SVBRDFStore, encode_maps
+src, n_warm, n = SVBRDFStore(sys.argv[1], "variants"), int(sys.argv[2]), int(sys.argv[3])
+cfg = BlendConfig()
+def work(r):
+    for j in r:
+        encode_maps(make_blend(src, draw(j, len(src), cfg), cfg).validate())
+work(range(n_warm))
+t = time.process_time()
+work(range(n_warm, n_warm + n))
+print(1000 * (time.process_time() - t) / n)
+"""
+
+
+def compute_ms(code: Path, v: Path, n: int) -> float:
+    """CPU ms per blend of ``code``'s blend arithmetic (:data:`COMPUTE`), in its own process."""
+    env = {**os.environ, "PYTHONPATH": str(code), "OMP_NUM_THREADS": "1"}
+    r = subprocess.run([sys.executable, "-c", COMPUTE, str(v), str(n // 2), str(n)], env=env, capture_output=True,
+                       text=True, check=True)
+    return round(float(r.stdout.strip().splitlines()[-1]), 3)
 
 
 def measure(code: Path, v: Path, work: Path, count: int, small: int, workers: int, tag: str) -> dict:
@@ -54,7 +86,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--count", type=int, default=2000, help="blends of the timed run")
     ap.add_argument("--small", type=int, default=64, help="blends of the run that measures the startup")
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--compute", type=int, default=500, help="blends timed in-process per round (no write)")
     ap.add_argument("--against", default=None, help="another checkout measured the same way (e.g. the code before)")
     ap.add_argument("--out", default=str(RESULTS / "blend.json"))
     a = ap.parse_args(argv)
@@ -67,20 +100,27 @@ def main(argv=None) -> dict:
         source = run_stage(["sample", str(v), "--per-preset", str(a.per_preset), "--workers", str(a.workers)], env)
         codes = {"this": ROOT, **({"against": Path(a.against).resolve()} if a.against else {})}
         rounds = {k: [] for k in codes}
+        compute = {k: [] for k in codes}
         for i in range(a.rounds):
             for k, code in codes.items():
                 rounds[k].append(measure(code, v, work, a.count, a.small, a.workers, f"{k}{i}"))
+            for k, code in codes.items():
+                compute[k].append(compute_ms(code, v, a.compute))
     finally:
         shutil.rmtree(work, ignore_errors=True)
     res = {"benchmark": "blend", "size": 256, "workers": a.workers, "cpus": os.cpu_count(),
            "source": {"per_preset": a.per_preset, **source}, "count": a.count, "small": a.small, "aim_blends_per_s": AIM,
-           **{k: summary(r, a.count, a.small) for k, r in rounds.items()}}
+           **{k: summary(r, a.count, a.small) for k, r in rounds.items()},
+           "compute": {"what": "CPU ms per blend in one process, no write (draw, read and decode, blend, validate, "
+                               "encode); median of rounds", "blends": a.compute,
+                       **{k: {"ms_per_blend": statistics.median(c), "rounds": c} for k, c in compute.items()}}}
     if a.against:
         res["against_path"] = Path(a.against).name
     for k in codes:
         s = res[k]
         print(f"{k}: {s['blends_per_s']} blends/s ({s['steady_blends_per_s']} steady), "
-              f"{s['cpu_ms_per_blend_steady']} CPU ms per blend")
+              f"{s['cpu_ms_per_blend_steady']} CPU ms per blend; compute only "
+              f"{res['compute'][k]['ms_per_blend']} ms")
     write_results(a.out, res, a.note, code=("svcore", "materials", "storage", "pipeline"))
     return res
 
