@@ -43,19 +43,13 @@ def blend_normals(na: np.ndarray, nb: np.ndarray, w: np.ndarray | float) -> np.n
         (H, W, 3) unit normals with z > 0.
     """
     wa = w[..., 0] if np.ndim(w) == 3 else w
-    # channel planes, not (H, W, 2) slices: numpy's inner loop would otherwise run over an axis of length 2
-    s = []
+    za, zb = np.maximum(na[..., 2], MIN_NZ), np.maximum(nb[..., 2], MIN_NZ)
+    # by channel plane, not (H, W, 2) slices: numpy's inner loop would otherwise run over an axis of length 2
+    v = np.empty(na.shape[:-1] + (3,), np.float32)
     for c in range(2):
-        sa = na[..., c] / np.maximum(na[..., 2], MIN_NZ)
-        sb = nb[..., c] / np.maximum(nb[..., 2], MIN_NZ)
-        s.append(np.asarray(wa * sa + (1.0 - wa) * sb, np.float32))
-    # normalize((s_x, s_y, 1)) by planes: the same float32 operations as materials.maps.normalize
-    length = np.maximum(np.sqrt(s[0] * s[0] + s[1] * s[1] + np.float32(1.0) * np.float32(1.0)), np.float32(1e-8))
-    out = np.empty(length.shape + (3,), np.float32)
-    np.divide(s[0], length, out=out[..., 0])
-    np.divide(s[1], length, out=out[..., 1])
-    np.divide(np.float32(1.0), length, out=out[..., 2])
-    return out
+        v[..., c] = wa * (na[..., c] / za) + (1.0 - wa) * (nb[..., c] / zb)
+    v[..., 2] = 1.0
+    return normalize(v)
 
 
 def mask(size: int, seed: int, alpha: float, scale: float) -> np.ndarray:
