@@ -45,7 +45,12 @@ STORES = {"base": (0.0, 8.0), "c4": (0.15, 4.0), "c12": (0.15, 12.0), "c40": (0.
           # the base variants with decorrelated blends: a different procedural mask per map, so that a blend's
           # relief and its albedo pattern come from different materials (real materials' normals correlate with
           # their albedo far less than procedural ones: results/normals_probe_bundled.json)
-          "dmask": (0.0, 8.0, ("--set", "mode=mask", "--set", "mask_per_map=true"))}
+          "dmask": (0.0, 8.0, ("--set", "mode=mask", "--set", "mask_per_map=true")),
+          # round 2 (2026-11-26): today's default library, and the same variants and blends rendered with another
+          # per-view zoom range (render.zoom; the default is log-uniform on [0.7, 1.4])
+          "now": (0.0, 8.0),
+          "now_z1": (0.0, 8.0, (), ("now", ("--set", "zoom=[1, 1]"))),
+          "now_zw": (0.0, 8.0, (), ("now", ("--set", "zoom=[0.5, 2]")))}
 #: store building: variants per preset, blends, views per SVBRDF (render resolution 256, the default).
 PER_PRESET, BLENDS, VIEWS = 4, 200, 4
 #: arms: name -> (factor, store, config overrides, step multiplier, what it tries).
@@ -71,7 +76,34 @@ ARMS = {
               "relief at 12 cycles/map, RMS slope 0.3 + base width 16 (the two largest single effects)"),
     "combo_w8": ("combined", "c12s", {"optim.normal_l2": 300.0}, 1,
                  "relief at 12 cycles/map, RMS slope 0.3 + normal term weight 300 (width 8)"),
+    # round 2: the factors of #22's list round 1 left out, on today's library and today's compact default (width
+    # 16); every arm is evaluated on the same held-out views of store "now", whole (256²), against now_base
+    "now_base": ("baseline", "now", {"model.base_width": 16, "model.max_width": 128}, 1,
+                 "round 2 baseline: today's compact default (width 16) on today's library"),
+    "now_crop256": ("network", "now", {"model.base_width": 16, "model.max_width": 128, "data.crop": 256}, 1,
+                    "256² training crops (the paper's) instead of 128², equal steps (4x the pixels per step)"),
+    "now_zoom_fixed": ("data", "now_z1", {"model.base_width": 16, "model.max_width": 128}, 1,
+                       "every training view at zoom 1 (no zoom augmentation; default log-uniform 0.7-1.4)"),
+    "now_zoom_wide": ("data", "now_zw", {"model.base_width": 16, "model.max_width": 128}, 1,
+                      "training views at zoom log-uniform in [0.5, 2] (default [0.7, 1.4])"),
+    "now_steps_x4": ("steps", "now", {"model.base_width": 16, "model.max_width": 128}, 4, "4x the steps"),
+    "now_steps_x8": ("steps", "now", {"model.base_width": 16, "model.max_width": 128}, 8, "8x the steps"),
 }
+#: round 2's arms: their baseline arm, and the store whose held-out views (whole, at this crop) they are evaluated on
+ROUND2 = {"prefix": "now_", "baseline": "now_base", "eval_store": "now", "eval_crop": 256}
+
+
+def round2(arm: str) -> bool:
+    return arm.startswith(ROUND2["prefix"])
+
+
+def baseline_of(arm: str) -> str:
+    return ROUND2["baseline"] if round2(arm) else "base"
+
+
+def eval_store_of(arm: str) -> str:
+    """The store whose held-out views measure ``arm`` (round 1: its own; round 2: the common one)."""
+    return ROUND2["eval_store"] if round2(arm) else ARMS[arm][1]
 #: the probes' baseline network, pinned (the compact preset's widths when the grid was run), so that a later change
 #: of the compact default (the grid chose base width 16) does not change what the baseline arm means
 PROBE_BASE = {"model.base_width": 8, "model.max_width": 64}
@@ -85,9 +117,13 @@ def store_path(root: Path, name: str) -> Path:
 
 def build_commands(root: Path, name: str) -> list[list[str]]:
     """The svgen commands that make store ``name`` under ``root`` (variants, blends, renders)."""
-    relief, cycles, *blend_args = STORES[name]
-    blend_args = list(blend_args[0]) if blend_args else []
+    relief, cycles, *more = STORES[name]
+    blend_args = list(more[0]) if more else []
     v, b, r = (str(root / f"{name}_{k}.zarr") for k in "vbr")
+    if len(more) > 1:  # another rendering of a store's variants and blends
+        of, render_args = more[1]
+        return [["svgen", "render", str(root / f"{of}_v.zarr"), str(root / f"{of}_b.zarr"), r, "--views", str(VIEWS),
+                 *render_args]]
     extra = ["--set", f"relief={relief}", "--set", f"relief_cycles={cycles}"] if relief else []
     return [["svgen", "sample", v, "--per-preset", str(PER_PRESET), *extra],
             ["svgen", "blend", v, b, "--count", str(BLENDS), *blend_args],
@@ -124,8 +160,11 @@ def spaced(idx: np.ndarray, n: int) -> np.ndarray:
     return idx if len(idx) <= n else idx[np.linspace(0, len(idx) - 1, n).round().astype(int)]
 
 
-def run_arm(store: str, overrides: dict, steps: int, seed: int) -> dict:
-    """In a spawned process: train the compact preset with ``overrides`` for ``steps`` and measure it."""
+def run_arm(store: str, overrides: dict, steps: int, seed: int, eval_store: str | None = None,
+            eval_crop: int | None = None) -> dict:
+    """In a spawned process: train the compact preset with ``overrides`` for ``steps`` and measure it: on the
+    held-out views of ``eval_store`` (default: ``store``; the same SVBRDFs are held out of stores rendered from the
+    same variants and blends) and on training views, at centre crops of ``eval_crop`` (default: the training crop)."""
     import torch
 
     from train.config import resolve
@@ -154,14 +193,22 @@ def run_arm(store: str, overrides: dict, steps: int, seed: int) -> dict:
     (Path(store).parent / "models").mkdir(exist_ok=True)
     torch.save({"config": cfg.to_dict(), "state": model.state_dict()},
                Path(store).parent / "models" / f"{Path(store).stem}_{key}.pt")
-    held, seen = spaced(test_idx, EVAL_VIEWS), spaced(train_idx, TRAIN_VIEWS)
+    crop = eval_crop or cfg.data.crop
+    seen = spaced(train_idx, TRAIN_VIEWS)
+    esrc = src
+    if eval_store and eval_store != store:
+        esrc = open_source(cfg.data.model_copy(update={"store": eval_store}))
+        e_train, test_idx = split_by_source(esrc, cfg.data.holdout, cfg.data.split_seed)
+        # no held-out SVBRDF of the evaluation store was trained on: both splits hold out the same sources
+        assert set(cluster_ids(esrc, test_idx).tolist()).isdisjoint(cluster_ids(src, train_idx).tolist())
+    held = spaced(test_idx, EVAL_VIEWS)
     return {"steps": steps, "seed": seed, "train_s": round(train_s, 1), "parameters": count_parameters(model),
-            "loss_last_50": float(np.mean(losses[-50:])),
-            "heldout": {**view_errors(model, src, held, cfg.data.crop), "svbrdf": cluster_ids(src, held).tolist()},
-            "train": {**view_errors(model, src, seen, cfg.data.crop), "svbrdf": cluster_ids(src, seen).tolist()}}
+            "loss_last_50": float(np.mean(losses[-50:])), "eval_crop": crop,
+            "heldout": {**view_errors(model, esrc, held, crop), "svbrdf": cluster_ids(esrc, held).tolist()},
+            "train": {**view_errors(model, src, seen, crop), "svbrdf": cluster_ids(src, seen).tolist()}}
 
 
-def cross_eval(model_file: str, store: str, every: bool = False) -> dict:
+def cross_eval(model_file: str, store: str, every: bool = False, crop: int | None = None) -> dict:
     """In a spawned process: a saved arm model on another store's held-out views (the grid's views of that store),
     or with ``every`` on all its views (at most EVAL_VIEWS, evenly spaced)."""
     import torch
@@ -184,7 +231,7 @@ def cross_eval(model_file: str, store: str, every: bool = False) -> dict:
     else:
         _, test_idx = split_by_source(src, cfg.data.holdout, cfg.data.split_seed)
     held = spaced(test_idx, EVAL_VIEWS)
-    return {**view_errors(model, src, held, cfg.data.crop), "svbrdf": cluster_ids(src, held).tolist()}
+    return {**view_errors(model, src, held, crop or cfg.data.crop), "svbrdf": cluster_ids(src, held).tolist()}
 
 
 def slope_spectrum(store: str, views: int = 32) -> dict:
@@ -251,10 +298,11 @@ def summarise(results: dict, steps: int, resamples: int = 2000) -> dict:
     for r in results["runs"]:
         if r["steps"] == steps * ARMS[r["arm"]][3]:
             by.setdefault(r["arm"], []).append(r)
-    out, base = {}, by.get("base")
+    out = {}
     rng = np.random.default_rng(0)
     for name, runs in by.items():
         factor, store, _, _, what = ARMS[name]
+        base = by.get(baseline_of(name))
         row = {"factor": factor, "store": store, "what": what, "steps": runs[0]["steps"],
                "seeds": sorted(r["seed"] for r in runs)}
         for split in ("heldout", "train"):
@@ -262,9 +310,11 @@ def summarise(results: dict, steps: int, resamples: int = 2000) -> dict:
             row[split] = {k: v for k, v in rel.items() if k != "draws"}
             row[split]["other_maps"] = {k: float(np.mean([r[split][k] for r in runs]))
                                         for k in ("rerender", "diffuse", "roughness", "specular")}
-        if base and name != "base":
+        row["baseline"] = baseline_of(name)
+        if base and name != baseline_of(name):
             n_c = len(np.unique(base[0]["heldout"]["svbrdf"]))
-            if store == "base":  # same views: resample SVBRDFs together, seeds on their own
+            if eval_store_of(name) == eval_store_of(baseline_of(name)):
+                # same views: resample SVBRDFs together, seeds on their own
                 cd = rng.integers(0, n_c, (resamples, n_c))
                 a = relative(base, boot=(cd, rng.integers(0, 9999, (resamples, len(base)))))["draws"]
                 b = relative(runs, boot=(cd, rng.integers(0, 9999, (resamples, len(runs)))))["draws"]
@@ -310,8 +360,8 @@ def chart(summary: dict, png: Path, steps: int, choice: str, cross: dict | None 
     ax.text(1.0, len(names) - 0.4, " flat", fontsize=8)
     ax.set_xlabel(f"normal RMSE / flat map's (o held-out, x training views, ^ real CC0 reference; 95 % interval), "
                   f"{steps} steps", fontsize=8)
-    ax.set_title(f"Learning shape: one factor at a time (compact preset at width 8, 128² crops)\nChoice: {choice}",
-                 fontsize=9)
+    ax.set_title(f"Learning shape: one factor at a time (compact preset at width 8, 128² crops; now_*: round 2, "
+                 f"width 16, today's library, 256² views)\nChoice: {choice}", fontsize=9)
     fig.tight_layout()
     png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(png, dpi=110)
@@ -321,6 +371,8 @@ def chart(summary: dict, png: Path, steps: int, choice: str, cross: dict | None 
 def main(argv=None) -> None:
     ap = parser(__doc__)
     ap.add_argument("--build", metavar="DIR", help="build the probe stores under DIR and exit")
+    ap.add_argument("--only", nargs="+", choices=list(STORES), default=list(STORES), metavar="STORE",
+                    help="with --build: only these stores (and nothing they do not need)")
     ap.add_argument("--stores", metavar="DIR", help="the folder --build wrote")
     ap.add_argument("--arms", nargs="+", default=list(ARMS), choices=list(ARMS))
     ap.add_argument("--steps", type=int, default=600, help="probe steps (the steps arms multiply them)")
@@ -341,7 +393,7 @@ def main(argv=None) -> None:
     if a.build:
         root = Path(a.build)
         root.mkdir(parents=True, exist_ok=True)
-        for name in STORES:
+        for name in a.only:
             if not store_path(root, name).exists():
                 for cmd in build_commands(root, name):
                     subprocess.run(cmd, check=True)
@@ -372,7 +424,7 @@ def main(argv=None) -> None:
         key = hashlib.sha256(json.dumps([overrides, a.steps * mult, 0], sort_keys=True).encode()).hexdigest()[:10]
         with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
             r = ex.submit(cross_eval, str(root / "models" / f"{store}_r_{key}.pt"), str(store_path(root, target)),
-                          target not in STORES).result()
+                          target not in STORES, ROUND2["eval_crop"] if round2(arm) else None).result()
         rel = relative([{"heldout": r}])
         results["cross"][f"{arm} on {target}"] = {"arm": arm, "store": target, "steps": a.steps * mult,
                                                   **{k: v for k, v in rel.items() if k != "draws"}, "views": r}
@@ -387,12 +439,14 @@ def main(argv=None) -> None:
             for seed in a.seeds:
                 if (arm, seed, a.steps * mult) in done:
                     continue
-                path = store_path(root, store)
-                if not path.exists():
-                    sys.exit(f"bench_shape: no store {path}; build it with --build {root}")
+                path, epath = store_path(root, store), store_path(root, eval_store_of(arm))
+                for p in {path, epath}:
+                    if not p.exists():
+                        sys.exit(f"bench_shape: no store {p}; build it with --build {root}")
                 # one spawned process per run: a process that has run drjit must not fork loader workers
                 with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
-                    r = ex.submit(run_arm, str(path), overrides, a.steps * mult, seed).result()
+                    r = ex.submit(run_arm, str(path), overrides, a.steps * mult, seed, str(epath),
+                                  ROUND2["eval_crop"] if round2(arm) else None).result()
                 results["runs"].append({"arm": arm, **r})
                 h = relative([r])
                 print(f"{arm:18s} seed {seed} steps {r['steps']}: held-out rel {h['rel']:.3f} "

@@ -182,6 +182,10 @@ class RenderConfig(StageConfig):
     """Views per SVBRDF (the paper: 10), each with its own light offset, zoom, rotation, shift and seed."""
     res: int = Field(256, ge=16, le=2048)
     """Render resolution (square, 16..2048); the paper renders 288 and crops 256 at training time."""
+    zoom: tuple[float, float] = Field((0.7, 1.4), **_LIST)
+    """Range of the per-view texture zoom (base-map tiles across the picture width, log-uniform; min == max: one
+    zoom for every view). At the default it is left out of the recorded config (the same bytes as before the key);
+    the #22 shape grid measures its effect on learning normals (benchmarks/bench_shape.py, shape.json)."""
     spp: int = Field(1, ge=1)
     """Samples per pixel (1 pixel-centre sample against a converged sphere-light reference:
     benchmarks/bench_render_quality.py, results in benchmarks/results/render_quality.json)."""
@@ -195,11 +199,21 @@ class RenderConfig(StageConfig):
     """SVBRDFs per task: one dask task renders chunk * views images and writes one zarr shard per array (the
     store's objects, the resume unit; 64: <= 200 objects per 10,000 views, docs/CODECS.md)."""
 
+    #: the default zoom range (pipeline.render.views.ZOOM_MIN, ZOOM_MAX; a test holds them equal)
+    DEFAULT_ZOOM: ClassVar[tuple[float, float]] = (0.7, 1.4)
+
     @model_validator(mode="after")
     def _square_spp(self) -> "RenderConfig":
         if self.sampler != "independent" and math.isqrt(self.spp) ** 2 != self.spp:
             raise ValueError(f"sampler {self.sampler!r} needs a square spp (1, 4, 9 ...), got {self.spp}")
+        if len(self.zoom) != 2 or not 0.125 <= self.zoom[0] <= self.zoom[1] <= 8:
+            raise ValueError(f"zoom must be a range [min, max] with 0.125 <= min <= max <= 8 (tiles across the "
+                             f"picture), got {list(self.zoom)}")
         return self
+
+    def dropped_keys(self) -> tuple[str, ...]:
+        """Keys left out of the recorded config because they are at their default (same bytes as before)."""
+        return ("zoom",) if tuple(self.zoom) == self.DEFAULT_ZOOM else ()
 
 
 ImportLayout = Literal["auto", "folders", "deschaintre"]

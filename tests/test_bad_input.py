@@ -141,6 +141,8 @@ CASES = [  # (id, command group, args with {d} = the world dir, expected words i
     ("not a zarr store", S, ["render", "{d}/exists.zarr", "{d}/o.zarr"], "not a zarr v3 store"),
     ("interrupted input store", S, ["render", "{d}/partial.zarr", "{d}/o.zarr"], "incomplete"),
     ("render resolution", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--res", "8"], "res must be"),
+    ("zoom range upside down", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--set", "zoom=[2, 1]"],
+     "zoom must be a range [min, max]"),
     ("non-square spp for pixel centres", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--spp", "2"], "square spp"),
     ("unknown light model", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--light", "laser"], "Invalid value"),
     ("unreachable scheduler", S, ["render", "{d}/v.zarr", "{d}/o.zarr", "--config-preset", "tiny",

@@ -63,6 +63,24 @@ def test_attributes_describe_the_store(renders):
     assert a["config"]["views"] == 2 and a["view_distribution"]["zoom"] == [0.7, 1.4]
 
 
+def test_a_zoom_range_is_recorded_and_rendered_and_the_default_left_out(variants, renders, tmp_path):
+    """``render.zoom``: the default range is not in the recorded config (a store made before the key had the same
+    bytes); another range is recorded, drives every view's zoom, and the reader's maps follow it (the stored image
+    is the render of the recomputed maps, bit for bit)."""
+    assert "zoom" not in zarr.open_group(renders, mode="r").attrs["config"]
+    out = tmp_path / "zoomed.zarr"
+    run_render(variants, out, build(RenderConfig, "tiny", chunk=1, zoom=(1.5, 1.5)), workers=0)
+    a = dict(zarr.open_group(out, mode="r").attrs)
+    assert a["config"]["zoom"] == [1.5, 1.5] and a["view_distribution"]["zoom"] == [1.5, 1.5]
+    r = RendersReader(out)
+    assert {r.view_params(i).zoom for i in range(len(r))} == {1.5}
+    scene = FlashScene(r.res, a["config"]["spp"], a["config"]["light"], a["config"]["sampler"])
+    v = r.view_params(1)
+    assert np.array_equal(encode_srgb8(scene.render_maps(r.maps(1), v)), np.asarray(r.group["image"][0, 1]))
+    assert not np.array_equal(np.asarray(r.group["image"][0, 1]),
+                              np.asarray(zarr.open_group(renders, mode="r")["image"][0, 1]))
+
+
 def test_stored_images_line_up_with_the_recomputed_maps(renders):
     """Rendering reader.maps(i) under reader.view_params(i) gives back the stored image bit for bit: the maps
     the reader recomputes are exactly the textures the render used."""

@@ -117,3 +117,26 @@ def test_zoom_shows_that_many_tiles(zoom):
     assert abs(np.argmax(spectrum) - zoom) <= 1.0
     crossings = np.count_nonzero(np.diff(np.sign(row - 0.5)))
     assert abs(crossings - 2 * zoom) <= 1.0
+
+
+def test_a_zoom_range_changes_each_views_zoom_and_nothing_else():
+    """``render.zoom`` (the #22 grid's zoom factor): the zooms are log-uniform on the range (KS test), every other
+    field of each view is the default range's draw, and min == max gives exactly that zoom."""
+    from scipy import stats
+
+    lo, hi = 0.5, 2.0
+    wide = [draw_view(np.random.default_rng(s), zoom_range=(lo, hi)) for s in range(2000)]
+    default = [draw_view(np.random.default_rng(s)) for s in range(2000)]
+    u = (np.log([v.zoom for v in wide]) - math.log(lo)) / (math.log(hi) - math.log(lo))
+    assert stats.kstest(u, "uniform").pvalue > 1e-3
+    for a, b in zip(wide[:200], default[:200]):
+        assert {k: v for k, v in a.as_dict().items() if k != "zoom"} == \
+            {k: v for k, v in b.as_dict().items() if k != "zoom"}
+    assert {v.zoom for v in draw_views(3, 1, 10, zoom_range=(1.25, 1.25))} == {1.25}
+    assert draw_views(3, 1, 10) == draw_views(3, 1, 10, zoom_range=(V.ZOOM_MIN, V.ZOOM_MAX))
+
+
+def test_the_config_default_zoom_is_the_views_default():
+    from pipeline.config import RenderConfig
+
+    assert RenderConfig.DEFAULT_ZOOM == (V.ZOOM_MIN, V.ZOOM_MAX) == tuple(RenderConfig().zoom)

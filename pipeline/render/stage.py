@@ -53,7 +53,7 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
 
     base = planes_of(maps)
     b = maps.normal.shape[0]
-    views = draw_views(cfg.seed, index, cfg.views, light_radius or (R_MIN, R_MAX))
+    views = draw_views(cfg.seed, index, cfg.views, light_radius or (R_MIN, R_MAX), tuple(cfg.zoom))
     images = np.empty((cfg.views, cfg.res, cfg.res, 3), np.uint8)
     for k, v in enumerate(views):
         planes = transform_planes(base, b, v, cfg.res)
@@ -105,7 +105,7 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
     from storage.svbrdf_store import SVBRDFInputs
     from .scene import mi, scene_constants, scene_description
     from .store import KIND, array_specs
-    from .views import R_MAX, R_MIN, ZOOM_MAX, ZOOM_MIN
+    from .views import R_MAX, R_MIN
 
     src = SVBRDFInputs(inputs)
     n = len(src)
@@ -117,7 +117,7 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
                   "description": scene_description(cfg.light, cfg.spp, cfg.sampler)},
         "view_distribution": {"light_radius": [R_MIN, R_MAX], "light_radius_law": "uniform over the annulus",
                               "light_radius_override": "per-sample light_radius of stress inputs",
-                              "zoom": [ZOOM_MIN, ZOOM_MAX], "zoom_law": "log-uniform", "rotation": "U(0, 2 pi)",
+                              "zoom": list(cfg.zoom), "zoom_law": "log-uniform", "rotation": "U(0, 2 pi)",
                               "shift": "U(0, 1)^2 tiles", "seed": "derive_seed(seed, 'render', svbrdf, view)"},
         "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)",
     }
@@ -127,7 +127,8 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
 
     # the inputs' identity (kind, size, config hash: not how their path is spelled) is part of the config:
     # resuming against different inputs must be refused, with any spelling of the same inputs accepted
-    config = {**cfg.as_dict(), "inputs": [{k: v for k, v in d.items() if k != "path"} for d in src.describe()]}
+    config = {**{k: v for k, v in cfg.as_dict().items() if k not in cfg.dropped_keys()},
+              "inputs": [{k: v for k, v in d.items() if k != "path"} for d in src.describe()]}
     return Stage(KIND, n, cfg.chunk, array_specs(cfg.views, cfg.res, src.size), config, attrs, _chunk_task,
                  dict(inputs=_paths(inputs), cfg=cfg, n=n), desc="render", unit="view", units_per_sample=cfg.views,
                  inputs=_paths(inputs), finish=record_split)

@@ -89,18 +89,21 @@ class ViewParams:
         return asdict(self)
 
 
-def draw_view(rng: np.random.Generator, light_radius: tuple[float, float] = (R_MIN, R_MAX)) -> ViewParams:
+def draw_view(rng: np.random.Generator, light_radius: tuple[float, float] = (R_MIN, R_MAX),
+              zoom_range: tuple[float, float] = (ZOOM_MIN, ZOOM_MAX)) -> ViewParams:
     """Draw one view from the distribution of the module docstring.
 
     Args:
         rng: the view's generator.
         light_radius: (min, max) light offset radius; the stress suite widens it to push the highlight to the
             image border.
+        zoom_range: (min, max) of the log-uniform zoom (``render.zoom``); the same draws from the generator
+            whatever the range, so a range changes the zoom of each view and nothing else.
     """
     r0, r1 = light_radius
     rho = math.sqrt(rng.uniform(r0**2, r1**2))
     phi = rng.uniform(0.0, 2 * math.pi)
-    zoom = math.exp(rng.uniform(math.log(ZOOM_MIN), math.log(ZOOM_MAX)))
+    zoom = math.exp(rng.uniform(math.log(zoom_range[0]), math.log(zoom_range[1])))
     return ViewParams(
         light_x=rho * math.cos(phi),
         light_y=rho * math.sin(phi),
@@ -113,9 +116,11 @@ def draw_view(rng: np.random.Generator, light_radius: tuple[float, float] = (R_M
 
 
 def draw_views(master_seed: int, sample_index: int, n_views: int,
-               light_radius: tuple[float, float] = (R_MIN, R_MAX)) -> list[ViewParams]:
-    """The views of one SVBRDF: view k is a pure function of (master seed, sample index, k)."""
-    return [draw_view(rng_for(master_seed, "render", sample_index, k), light_radius) for k in range(n_views)]
+               light_radius: tuple[float, float] = (R_MIN, R_MAX),
+               zoom_range: tuple[float, float] = (ZOOM_MIN, ZOOM_MAX)) -> list[ViewParams]:
+    """The views of one SVBRDF: view k is a pure function of (master seed, sample index, k) and the ranges."""
+    return [draw_view(rng_for(master_seed, "render", sample_index, k), light_radius, zoom_range)
+            for k in range(n_views)]
 
 
 def supersampling(view: ViewParams, res: int, base: int) -> int:
