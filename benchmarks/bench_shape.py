@@ -33,6 +33,7 @@ import json
 import multiprocessing
 import subprocess
 import sys
+import textwrap
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -87,7 +88,6 @@ ARMS = {
     "now_zoom_wide": ("data", "now_zw", {"model.base_width": 16, "model.max_width": 128}, 1,
                       "training views at zoom log-uniform in [0.5, 2] (default [0.7, 1.4])"),
     "now_steps_x4": ("steps", "now", {"model.base_width": 16, "model.max_width": 128}, 4, "4x the steps"),
-    "now_steps_x8": ("steps", "now", {"model.base_width": 16, "model.max_width": 128}, 8, "8x the steps"),
 }
 #: round 2's arms: their baseline arm, and the store whose held-out views (whole, at this crop) they are evaluated on
 ROUND2 = {"prefix": "now_", "baseline": "now_base", "eval_store": "now", "eval_crop": 256}
@@ -360,8 +360,9 @@ def chart(summary: dict, png: Path, steps: int, choice: str, cross: dict | None 
     ax.text(1.0, len(names) - 0.4, " flat", fontsize=8)
     ax.set_xlabel(f"normal RMSE / flat map's (o held-out, x training views, ^ real CC0 reference; 95 % interval), "
                   f"{steps} steps", fontsize=8)
-    ax.set_title(f"Learning shape: one factor at a time (compact preset at width 8, 128² crops; now_*: round 2, "
-                 f"width 16, today's library, 256² views)\nChoice: {choice}", fontsize=9)
+    ax.set_title(f"Learning shape: one factor at a time (compact preset at width 8, 128² crops;\nnow_*: round 2, "
+                 f"width 16, today's library, whole 256² views evaluated)\n" + textwrap.fill(f"Choice: {choice}", 90),
+                 fontsize=9)
     fig.tight_layout()
     png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(png, dpi=110)
