@@ -14,7 +14,8 @@ View distribution (:func:`draw_view`), all independent:
   R_MAX = 0.7 keeps its centre within 0.35 of the image centre (the middle ~35 % of the half-width).
   R_MIN = 0.1 keeps a sphere flash (radius <= 0.05) off the camera's frustum (a sphere at lateral offset rho
   blocks camera rays unless rho > ~1.5 radius).
-* zoom: tiles of the base map across the picture width, log-uniform in [ZOOM_MIN, ZOOM_MAX] = [0.7, 1.4]
+* zoom: tiles of the base map across the picture width, log-uniform in [ZOOM_MIN, ZOOM_MAX] = [0.7, 1.4] (the
+  default of ``render.zoom``, which sets another range)
   (mild magnification to mild minification; minified views are box-prefiltered by supersampling).
   The transform runs as one drjit kernel (numpy fancy-index gathers took ~40 ms per 256^2 view here, the
   whole view budget).
