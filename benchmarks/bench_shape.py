@@ -16,6 +16,11 @@ Arms (``ARMS``): the baseline is the compact default on the default library; the
 - loss: the normal term as slopes or cosine, its weight;
 - steps: the baseline at 2x and 4x the probe's steps.
 
+Round 2 (the ``now_*`` arms and stores) measures the factors round 1 left out on today's library and compact default
+(width 16): the per-view zoom range (stores re-rendered from ``now``'s variants and blends with ``render.zoom``),
+256² training crops and 4x the steps. Each is paired with ``now_base`` on the same held-out views of store ``now``,
+evaluated whole (``ROUND2``): ``--build DIR --only now now_z1 now_zw``, then ``--arms now_base ... --steps 600``.
+
 The stores are built once by ``--build DIR`` (the commands are recorded in shape.json), then
 
     python3 benchmarks/bench_shape.py --build /tmp/shape                       # the stores (~4 min each, loaded)
@@ -54,6 +59,8 @@ STORES = {"base": (0.0, 8.0), "c4": (0.15, 4.0), "c12": (0.15, 12.0), "c40": (0.
           "now_zw": (0.0, 8.0, (), ("now", ("--set", "zoom=[0.5, 2]")))}
 #: store building: variants per preset, blends, views per SVBRDF (render resolution 256, the default).
 PER_PRESET, BLENDS, VIEWS = 4, 200, 4
+#: the compact preset at base width 16 (the grid's choice, today's default), pinned like PROBE_BASE below
+WIDTH16 = {"model.base_width": 16, "model.max_width": 128}
 #: arms: name -> (factor, store, config overrides, step multiplier, what it tries).
 ARMS = {
     "base": ("baseline", "base", {}, 1, "compact default on the default library"),
@@ -64,7 +71,7 @@ ARMS = {
     "fullres": ("network", "base", {"model.fullres_convs": 2}, 1, "2 full-resolution conv layers"),
     "normal_head": ("network", "base", {"model.normal_head": True}, 1, "separate normal head"),
     "slope_param": ("network", "base", {"model.normal_param": "slope"}, 1, "normals output as slopes"),
-    "width16": ("network", "base", {"model.base_width": 16, "model.max_width": 128}, 1, "base width 16"),
+    "width16": ("network", "base", WIDTH16, 1, "base width 16"),
     "loss_slope": ("loss", "base", {"optim.normal_loss": "slope"}, 1, "normal term on slopes"),
     "loss_cosine": ("loss", "base", {"optim.normal_loss": "cosine", "optim.normal_l2": 50.0}, 1,
                     "normal term 1 - cosine (weight 50: the same gradient scale as l2 at 100)"),
@@ -73,21 +80,21 @@ ARMS = {
     "steps_x4": ("steps", "base", {}, 4, "4x the steps"),
     "blend_decorrelated": ("data", "dmask", {}, 1, "blends with a different mask per map (relief and albedo "
                            "from different materials)"),
-    "combo": ("combined", "c12s", {"model.base_width": 16, "model.max_width": 128}, 1,
+    "combo": ("combined", "c12s", WIDTH16, 1,
               "relief at 12 cycles/map, RMS slope 0.3 + base width 16 (the two largest single effects)"),
     "combo_w8": ("combined", "c12s", {"optim.normal_l2": 300.0}, 1,
                  "relief at 12 cycles/map, RMS slope 0.3 + normal term weight 300 (width 8)"),
     # round 2: the factors of #22's list round 1 left out, on today's library and today's compact default (width
     # 16); every arm is evaluated on the same held-out views of store "now", whole (256²), against now_base
-    "now_base": ("baseline", "now", {"model.base_width": 16, "model.max_width": 128}, 1,
+    "now_base": ("baseline", "now", WIDTH16, 1,
                  "round 2 baseline: today's compact default (width 16) on today's library"),
-    "now_crop256": ("network", "now", {"model.base_width": 16, "model.max_width": 128, "data.crop": 256}, 1,
+    "now_crop256": ("network", "now", {**WIDTH16, "data.crop": 256}, 1,
                     "256² training crops (the paper's) instead of 128², equal steps (4x the pixels per step)"),
-    "now_zoom_fixed": ("data", "now_z1", {"model.base_width": 16, "model.max_width": 128}, 1,
+    "now_zoom_fixed": ("data", "now_z1", WIDTH16, 1,
                        "every training view at zoom 1 (no zoom augmentation; default log-uniform 0.7-1.4)"),
-    "now_zoom_wide": ("data", "now_zw", {"model.base_width": 16, "model.max_width": 128}, 1,
+    "now_zoom_wide": ("data", "now_zw", WIDTH16, 1,
                       "training views at zoom log-uniform in [0.5, 2] (default [0.7, 1.4])"),
-    "now_steps_x4": ("steps", "now", {"model.base_width": 16, "model.max_width": 128}, 4, "4x the steps"),
+    "now_steps_x4": ("steps", "now", WIDTH16, 4, "4x the steps"),
 }
 #: round 2's arms: their baseline arm, and the store whose held-out views (whole, at this crop) they are evaluated on
 ROUND2 = {"prefix": "now_", "baseline": "now_base", "eval_store": "now", "eval_crop": 256}
@@ -104,6 +111,20 @@ def baseline_of(arm: str) -> str:
 def eval_store_of(arm: str) -> str:
     """The store whose held-out views measure ``arm`` (round 1: its own; round 2: the common one)."""
     return ROUND2["eval_store"] if round2(arm) else ARMS[arm][1]
+
+
+def eval_crop_of(arm: str) -> int | None:
+    """The centre crop ``arm`` is evaluated at (None: its training crop)."""
+    return ROUND2["eval_crop"] if round2(arm) else None
+
+
+def with_parents(names) -> list[str]:
+    """Stores to build for ``names``, each after the store whose variants and blends it re-renders."""
+    out = []
+    for n in names:
+        parent = STORES[n][3][0] if len(STORES[n]) > 3 else None
+        out += [x for x in (parent, n) if x and x not in out]
+    return out
 #: the probes' baseline network, pinned (the compact preset's widths when the grid was run), so that a later change
 #: of the compact default (the grid chose base width 16) does not change what the baseline arm means
 PROBE_BASE = {"model.base_width": 8, "model.max_width": 64}
@@ -198,7 +219,7 @@ def run_arm(store: str, overrides: dict, steps: int, seed: int, eval_store: str 
     esrc = src
     if eval_store and eval_store != store:
         esrc = open_source(cfg.data.model_copy(update={"store": eval_store}))
-        e_train, test_idx = split_by_source(esrc, cfg.data.holdout, cfg.data.split_seed)
+        _, test_idx = split_by_source(esrc, cfg.data.holdout, cfg.data.split_seed)
         # no held-out SVBRDF of the evaluation store was trained on: both splits hold out the same sources
         assert set(cluster_ids(esrc, test_idx).tolist()).isdisjoint(cluster_ids(src, train_idx).tolist())
     held = spaced(test_idx, EVAL_VIEWS)
@@ -394,7 +415,7 @@ def main(argv=None) -> None:
     if a.build:
         root = Path(a.build)
         root.mkdir(parents=True, exist_ok=True)
-        for name in a.only:
+        for name in with_parents(a.only):
             if not store_path(root, name).exists():
                 for cmd in build_commands(root, name):
                     subprocess.run(cmd, check=True)
@@ -425,7 +446,7 @@ def main(argv=None) -> None:
         key = hashlib.sha256(json.dumps([overrides, a.steps * mult, 0], sort_keys=True).encode()).hexdigest()[:10]
         with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
             r = ex.submit(cross_eval, str(root / "models" / f"{store}_r_{key}.pt"), str(store_path(root, target)),
-                          target not in STORES, ROUND2["eval_crop"] if round2(arm) else None).result()
+                          target not in STORES, eval_crop_of(arm)).result()
         rel = relative([{"heldout": r}])
         results["cross"][f"{arm} on {target}"] = {"arm": arm, "store": target, "steps": a.steps * mult,
                                                   **{k: v for k, v in rel.items() if k != "draws"}, "views": r}
@@ -447,7 +468,7 @@ def main(argv=None) -> None:
                 # one spawned process per run: a process that has run drjit must not fork loader workers
                 with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
                     r = ex.submit(run_arm, str(path), overrides, a.steps * mult, seed, str(epath),
-                                  ROUND2["eval_crop"] if round2(arm) else None).result()
+                                  eval_crop_of(arm)).result()
                 results["runs"].append({"arm": arm, **r})
                 h = relative([r])
                 print(f"{arm:18s} seed {seed} steps {r['steps']}: held-out rel {h['rel']:.3f} "

@@ -147,12 +147,14 @@ def main(argv=None) -> None:
     for name, path in stores.items():
         results[name] = measure(path, a.views, a.min_tilt)
         s = results[name]["summary"]
-        print(f"{name}: {results[name]['views_measured']} views; median dB 8-bit {s['db_8_log']['median']} (log) "
+        e = s["db_8_log"]
+        print(f"{name}: {results[name]['views_measured']} views; median dB 8-bit {e['median']} (log) "
               f"{s['db_8_linear']['median']} (linear); 16-bit {s['db_16_log']['median']} (log); 8-bit views below "
-              f"0 dB {s['db_8_log']['share_below_0db']:.1%}; below 10 dB {s['db_8_log']['share_below_10db']:.1%} of the views, "
-              f"{s['db_8_log']['flat_mse_share_below_10db']:.1%} of the flat map's squared normal error", flush=True)
-    write_results(a.out, {"benchmark": "quantisation", "stores": {k: "/".join(Path(v).parts[-2:]) for k, v in stores.items()},
-                          "views": a.views, "min_tilt": a.min_tilt, "results": results}, a.note)
+              f"0 dB {e['share_below_0db']:.1%}; below 10 dB {e['share_below_10db']:.1%} of the views, "
+              f"{e['flat_mse_share_below_10db']:.1%} of the flat map's squared normal error", flush=True)
+    named = {k: "/".join(Path(v).parts[-2:]) for k, v in stores.items()}
+    write_results(a.out, {"benchmark": "quantisation", "stores": named, "views": a.views, "min_tilt": a.min_tilt,
+                          "results": results}, a.note)
     chart(results, Path(a.png))
 
 

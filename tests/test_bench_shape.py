@@ -41,3 +41,6 @@ def test_a_rerendered_store_renders_its_parents_variants_and_blends():
                      "--set", "zoom=[0.5, 2]"]]
     assert [c[1] for c in bs.build_commands(Path("D"), "now")] == ["sample", "blend", "render"]
     assert all(bs.eval_store_of(a) == "now" for a in bs.ARMS if a.startswith("now_"))
+    # --build --only: a re-rendered store's parent is built first, once
+    assert bs.with_parents(["now_zw", "now_z1"]) == ["now", "now_zw", "now_z1"]
+    assert bs.with_parents(["c4"]) == ["c4"]

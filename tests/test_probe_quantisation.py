@@ -42,7 +42,8 @@ def test_the_ratio_is_what_uniform_quantisation_noise_predicts(bits):
     image = flat + amp * np.sin(2 * np.pi * 9 * xx + 1.0)[..., None]
     top = 2 ** bits - 1
     c = np.floor(np.asarray(srgb_encode(image), np.float64) * top + 0.5)
-    step = np.asarray(srgb_decode(np.minimum(c + 0.5, top) / top)) - np.asarray(srgb_decode(np.maximum(c - 0.5, 0) / top))
+    edge = lambda k: np.asarray(srgb_decode(np.clip(k, 0, top) / top))  # noqa: E731
+    step = edge(c + 0.5) - edge(c - 0.5)
     expected = 10 * math.log10(np.mean((image - flat) ** 2) / np.mean(step ** 2 / 12))
     got = pq.imprint_ratio_db(image.astype(np.float32), flat.astype(np.float32), bits)
     assert abs(got - expected) < 0.3, (got, expected)
