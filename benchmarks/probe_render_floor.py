@@ -1,0 +1,199 @@
+"""Where a view's render CPU goes: the Mitsuba call taken apart, the view transform and the encoding (#24).
+
+#24 aims at 0.010 CPU-s per 256² view end to end; the render stage measures about three times that on this
+machine (``paper_scale.json``). This probe measures, on one drjit thread, the floor that the stage's own calls
+set before any store I/O, and what each part of the ``mi.render`` call of the capture scene costs, by rendering
+the same scene with integrators that stop early (registered here, used nowhere else):
+
+* ``camera``: camera rays and the film only (the integrator returns the ray's direction);
+* ``+ intersect``: adds the scene's ray intersection (``scene.ray_intersect``: Embree on the LLVM variants);
+* ``+ light``: adds the flash's direction sample (no shadow ray);
+* ``direct``: the stage's integrator (Mitsuba's ``direct``, a shadow ray and the svgen_ggx BSDF);
+* ``shape intersect``: what ``direct`` computes for this scene with the plane intersected by Mitsuba's own
+  rectangle code (``shape.ray_intersect_preliminary``) instead of Embree and no shadow ray (a single plane lit
+  from its front cannot shadow itself). Not bit-identical to ``direct``: its agreement is measured over views of
+  the library (float pixels that differ, 8-bit codes that differ per million).
+
+Beside them: ``transform_planes`` (the view's texture transform) at 1 and 2 subsamples per axis (2 when the view
+minifies: zoom above base/res, about half the views at the default zoom range) and the drjit 8-bit encoding.
+
+    python3 benchmarks/probe_render_floor.py    # -> results/render_floor.json
+
+CPU is ``time.process_time`` of this process, median of ``--rounds`` rounds of ``--calls`` calls.
+"""
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+
+from harness import RESULTS, parser, write_results
+
+#: integrators of the probe, in order: name -> what it adds
+STEPS = {"camera": "camera rays and film", "intersect": "+ scene.ray_intersect (Embree)",
+         "light": "+ the flash's direction sample", "direct": "the stage's integrator (direct, svgen_ggx)",
+         "shape_intersect": "direct's result via the rectangle's own intersection, no shadow ray"}
+
+
+def register_probe_integrators():
+    """Register the probe's integrators (``svgen_probe_<step>``); returns the mitsuba module."""
+    from pipeline.mi_env import dr, mi
+
+    class Partial(mi.SamplingIntegrator):
+        """camera / intersect / light: the render call stopped after that step."""
+
+        def __init__(self, props):
+            mi.SamplingIntegrator.__init__(self, props)
+            self.step = props.get("step", "camera")
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            if self.step == "camera":
+                return mi.Spectrum(ray.d.z), mi.Bool(True), []
+            si = scene.ray_intersect(ray, active)
+            if self.step == "intersect":
+                return mi.Spectrum(si.uv.x), si.is_valid(), []
+            ds, em = scene.sample_emitter_direction(si, sampler.next_2d(active), False, active)
+            return mi.Spectrum(em), si.is_valid(), []
+
+        def aov_names(self):
+            return []
+
+        def to_string(self):
+            return f"Partial[{self.step}]"
+
+    class ShapeIntersect(mi.SamplingIntegrator):
+        """direct's emitter sample for a point light, the plane intersected by its own shape code."""
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            r = mi.Ray3f(ray)
+            pi = scene.shapes()[0].ray_intersect_preliminary(r, 0, active)
+            si = pi.compute_surface_interaction(r, mi.RayFlags.All, active)
+            valid = si.is_valid()
+            act = mi.Bool(active) & valid
+            ds, em = scene.sample_emitter_direction(si, sampler.next_2d(act), False, act)
+            act &= ds.pdf != 0.0
+            val = si.bsdf(ray).eval(mi.BSDFContext(), si, si.to_local(ds.d), act)
+            return mi.Spectrum(dr.select(act, val * em, 0.0)), valid, []
+
+        def aov_names(self):
+            return []
+
+        def to_string(self):
+            return "ShapeIntersect"
+
+    mi.register_integrator("svgen_probe_partial", lambda p: Partial(p))
+    mi.register_integrator("svgen_probe_shape", lambda p: ShapeIntersect(p))
+    return mi
+
+
+def probe_scene(res: int, step: str):
+    """A FlashScene (point light, centre sampler, 1 spp) whose integrator is the probe's ``step``."""
+    from pipeline.render.scene import FlashScene, scene_dict
+
+    mi = register_probe_integrators()
+    scene = FlashScene(res, 1, "point", "centre")
+    if step != "direct":
+        d = scene_dict(res, 1, "point", "centre")
+        d["integrator"] = ({"type": "svgen_probe_shape"} if step == "shape_intersect"
+                           else {"type": "svgen_probe_partial", "step": step})
+        scene.scene = mi.load_dict(d)
+        scene.params = mi.traverse(scene.scene)
+    return scene
+
+
+def agreement(res: int, views: int, presets: int = 15) -> dict:
+    """``shape_intersect`` against ``direct`` on views of evenly spaced presets of the library."""
+    import materials
+    from pipeline.render.views import draw_views, planes_of, transform_planes
+
+    direct, shape = probe_scene(res, "direct"), probe_scene(res, "shape_intersect")
+    names = materials.presets()
+    pick = np.linspace(0, len(names) - 1, presets).round().astype(int)
+    same, rel, codes, n_codes, n_views = 0, 0.0, 0, 0, 0
+    for i in pick:
+        base = planes_of(names[i].generate(None, res, int(i)))
+        for v in draw_views(0, int(i), max(1, views // presets)):
+            planes = transform_planes(base, res, v, res)
+            a = direct.render_planes(planes, (v.light_x, v.light_y), v.seed, clip=False)
+            b = shape.render_planes(planes, (v.light_x, v.light_y), v.seed, clip=False)
+            same += int(np.array_equal(a, b))
+            rel = max(rel, float((np.abs(a - b) / np.maximum(np.abs(a), 1e-3)).max()))
+            ca = direct.render_planes_srgb8(planes, (v.light_x, v.light_y), v.seed)
+            cb = shape.render_planes_srgb8(planes, (v.light_x, v.light_y), v.seed)
+            codes += int((ca != cb).sum())
+            n_codes += ca.size
+            n_views += 1
+    return {"views": n_views, "views_bit_identical": same, "max_relative_difference": rel,
+            "codes_differing_per_million": round(1e6 * codes / n_codes, 3), "codes": n_codes}
+
+
+def _cpu_ms(f, calls: int, rounds: int) -> float:
+    f()  # compile / warm
+    per = []
+    for _ in range(rounds):
+        t = time.process_time()
+        for _ in range(calls):
+            f()
+        per.append((time.process_time() - t) / calls * 1e3)
+    return round(statistics.median(per), 3)
+
+
+def measure(res: int, calls: int, rounds: int) -> dict:
+    """CPU ms per call of each step, the transform at 1 and 2 subsamples and the encoding, at ``res``²."""
+    import materials
+    from pipeline.render.encoding import DrjitEncoder
+    from pipeline.render.views import ViewParams, planes_of, supersampling, transform_planes
+
+    base = planes_of(materials.presets()[0].generate(None, res, 0))
+    views = {ss: ViewParams(light_x=0.3, light_y=-0.2, zoom=z, rotation=0.7, shift_u=0.25, shift_v=0.6, seed=5)
+             for ss, z in ((1, 0.85), (2, 1.2))}
+    assert all(supersampling(v, res, res) == ss for ss, v in views.items())
+    planes = transform_planes(base, res, views[1], res)
+    out = {"render_ms": {}}
+    for step in STEPS:
+        scene = probe_scene(res, step)
+        out["render_ms"][step] = _cpu_ms(lambda: scene.render_planes(planes, (0.3, -0.2), 5, clip=False),
+                                         calls, rounds)
+    out["transform_ms"] = {f"ss{ss}": _cpu_ms(lambda: transform_planes(base, res, v, res), calls, rounds)
+                           for ss, v in views.items()}
+    enc = DrjitEncoder()
+    img = probe_scene(res, "camera").render_planes(planes, (0.3, -0.2), 5, clip=False)
+    from pipeline.mi_env import mi
+    flat = mi.Float(img.ravel())
+    out["encode_ms"] = _cpu_ms(lambda: enc(flat), calls, rounds)
+    r = out["render_ms"]
+    out["parts_ms"] = {"camera_and_film": r["camera"], "intersect": round(r["intersect"] - r["camera"], 3),
+                       "light_sample": round(r["light"] - r["intersect"], 3),
+                       "shadow_ray_bsdf_and_rest": round(r["direct"] - r["light"], 3)}
+    t = out["transform_ms"]
+    out["floor_ms_per_view"] = round(r["direct"] + (t["ss1"] + t["ss2"]) / 2 + out["encode_ms"], 3)
+    out["floor_note"] = ("direct render + the mean of the two transforms (about half the views minify) + encoding: "
+                         "the stage's calls per view before decoding inputs and writing the store")
+    return out
+
+
+def main(argv=None) -> None:
+    ap = parser(__doc__)
+    ap.add_argument("--res", type=int, nargs="+", default=[256, 288])
+    ap.add_argument("--calls", type=int, default=20)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--agreement-views", type=int, default=45)
+    ap.add_argument("--out", default=str(RESULTS / "render_floor.json"))
+    a = ap.parse_args(argv)
+    from pipeline.mi_env import dr
+
+    dr.set_thread_count(1)
+    results = {}
+    for res in a.res:
+        results[str(res)] = measure(res, a.calls, a.rounds)
+        results[str(res)]["agreement_shape_intersect"] = agreement(res, a.agreement_views)
+        m = results[str(res)]
+        print(f"{res}²: render {m['render_ms']}, transform {m['transform_ms']}, encode {m['encode_ms']} ms; floor "
+              f"{m['floor_ms_per_view']} ms/view; shape_intersect: {m['agreement_shape_intersect']}", flush=True)
+    write_results(a.out, {"benchmark": "render_floor", "drjit_threads": 1, "steps": STEPS, "calls": a.calls,
+                          "rounds": a.rounds, "aim_ms_per_view": 10.0, "results": results}, a.note)
+
+
+if __name__ == "__main__":
+    main()
