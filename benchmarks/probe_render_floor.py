@@ -19,7 +19,8 @@ minifies: zoom above base/res, about half the views at the default zoom range) a
 
     python3 benchmarks/probe_render_floor.py    # -> results/render_floor.json
 
-CPU is ``time.process_time`` of this process, median of ``--rounds`` rounds of ``--calls`` calls.
+CPU is ``time.process_time`` of this process, median of ``--rounds`` rounds of ``--calls`` calls, the items
+interleaved within each round.
 """
 from __future__ import annotations
 
@@ -128,20 +129,26 @@ def agreement(res: int, views: int, presets: int = 15) -> dict:
             "codes_differing_per_million": round(1e6 * codes / n_codes, 3), "codes": n_codes}
 
 
-def _cpu_ms(f, calls: int, rounds: int) -> float:
-    f()  # compile / warm
-    per = []
+def _interleaved_cpu_ms(items: dict, calls: int, rounds: int) -> dict:
+    """Median CPU ms per call of each ``name -> f``: every round times each item in turn (``calls`` calls), so
+    that the drifts of a shared VM (the same call varies by up to 1.7x between seconds here) fall on every item
+    alike."""
+    for f in items.values():
+        f()  # compile / warm
+    per = {k: [] for k in items}
     for _ in range(rounds):
-        t = time.process_time()
-        for _ in range(calls):
-            f()
-        per.append((time.process_time() - t) / calls * 1e3)
-    return round(statistics.median(per), 3)
+        for k, f in items.items():
+            t = time.process_time()
+            for _ in range(calls):
+                f()
+            per[k].append((time.process_time() - t) / calls * 1e3)
+    return {k: round(statistics.median(v), 3) for k, v in per.items()}
 
 
 def measure(res: int, calls: int, rounds: int) -> dict:
     """CPU ms per call of each step, the transform at 1 and 2 subsamples and the encoding, at ``res``²."""
     import materials
+    from pipeline.mi_env import dr, mi
     from pipeline.render.encoding import DrjitEncoder
     from pipeline.render.views import ViewParams, planes_of, supersampling, transform_planes
 
@@ -150,23 +157,25 @@ def measure(res: int, calls: int, rounds: int) -> dict:
              for ss, z in ((1, 0.85), (2, 1.2))}
     assert all(supersampling(v, res, res) == ss for ss, v in views.items())
     planes = transform_planes(base, res, views[1], res)
-    out = {"render_ms": {}}
-    for step in STEPS:
-        scene = probe_scene(res, step)
-        out["render_ms"][step] = _cpu_ms(lambda: scene.render_planes(planes, (0.3, -0.2), 5, clip=False),
-                                         calls, rounds)
-    out["transform_ms"] = {f"ss{ss}": _cpu_ms(lambda: transform_planes(base, res, v, res), calls, rounds)
-                           for ss, v in views.items()}
+    scenes = {step: probe_scene(res, step) for step in STEPS}
     enc = DrjitEncoder()
-    img = probe_scene(res, "camera").render_planes(planes, (0.3, -0.2), 5, clip=False)
-    from pipeline.mi_env import mi
-    flat = mi.Float(img.ravel())
-    out["encode_ms"] = _cpu_ms(lambda: enc(flat), calls, rounds)
-    r = out["render_ms"]
+    flat = mi.Float(scenes["camera"].render_planes(planes, (0.3, -0.2), 5, clip=False).ravel())
+
+    def render(scene):
+        return lambda: scene.render_planes(planes, (0.3, -0.2), 5, clip=False)
+
+    def transform(v):  # synchronised: the kernel's time is the call's, not the next call's
+        return lambda: (transform_planes(base, res, v, res), dr.sync_thread())
+
+    items = {**{f"render_{k}": render(s) for k, s in scenes.items()},
+             **{f"transform_ss{ss}": transform(v) for ss, v in views.items()}, "encode": lambda: enc(flat)}
+    ms = _interleaved_cpu_ms(items, calls, rounds)
+    r = {k: ms[f"render_{k}"] for k in STEPS}
+    t = {f"ss{ss}": ms[f"transform_ss{ss}"] for ss in views}
+    out = {"render_ms": r, "transform_ms": t, "encode_ms": ms["encode"]}
     out["parts_ms"] = {"camera_and_film": r["camera"], "intersect": round(r["intersect"] - r["camera"], 3),
                        "light_sample": round(r["light"] - r["intersect"], 3),
                        "shadow_ray_bsdf_and_rest": round(r["direct"] - r["light"], 3)}
-    t = out["transform_ms"]
     out["floor_ms_per_view"] = round(r["direct"] + (t["ss1"] + t["ss2"]) / 2 + out["encode_ms"], 3)
     out["floor_note"] = ("direct render + the mean of the two transforms (about half the views minify) + encoding: "
                          "the stage's calls per view before decoding inputs and writing the store")
@@ -176,8 +185,8 @@ def measure(res: int, calls: int, rounds: int) -> dict:
 def main(argv=None) -> None:
     ap = parser(__doc__)
     ap.add_argument("--res", type=int, nargs="+", default=[256, 288])
-    ap.add_argument("--calls", type=int, default=20)
-    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--calls", type=int, default=10)
+    ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--agreement-views", type=int, default=45)
     ap.add_argument("--out", default=str(RESULTS / "render_floor.json"))
     a = ap.parse_args(argv)
