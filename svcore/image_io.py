@@ -1,7 +1,8 @@
 """Image files at the edges of the project: PNG/JPEG (sRGB, 8/16-bit) and EXR (linear float), one place.
 
-Transfer functions come from colour-science (the sRGB IEC 61966-2-1 curve), never a bare gamma 2.2:
-the original code's users were repeatedly confused about which images were gamma-encoded.
+Transfer functions are colour-science's sRGB IEC 61966-2-1 curve (computed by :mod:`svcore.srgb`, bit for bit
+colour-science's, without its 2-second import), never a bare gamma 2.2: the original code's users were repeatedly
+confused about which images were gamma-encoded.
 
 Photos are read as the camera meant them (:func:`read_ldr`): turned upright by their EXIF orientation, 16-bit PNGs
 at 16 bits, and pixels in an embedded ICC profile's space converted to sRGB (LittleCMS through Pillow's ImageCms).
@@ -40,16 +41,16 @@ class ImageError(SvgenError):
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
     """Linear [0,1] -> sRGB-encoded [0,1] (float32)."""
-    import colour
+    from . import srgb
 
-    return np.asarray(colour.cctf_encoding(np.clip(linear, 0, 1), function="sRGB"), np.float32)
+    return srgb.encode(np.clip(linear, 0, 1)).astype(np.float32)
 
 
 def srgb_decode(encoded: np.ndarray) -> np.ndarray:
     """sRGB-encoded [0,1] -> linear [0,1] (float32)."""
-    import colour
+    from . import srgb
 
-    return np.asarray(colour.cctf_decoding(np.clip(encoded, 0, 1), function="sRGB"), np.float32)
+    return srgb.decode(np.clip(encoded, 0, 1)).astype(np.float32)
 
 
 def write_png(path: str | Path, img: np.ndarray) -> Path:
