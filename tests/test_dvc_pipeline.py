@@ -19,8 +19,11 @@ import yaml
 from conftest import chunk_stats, tree_digest
 
 REPO = Path(__file__).resolve().parents[1]
+#: 4 of the library's classes (28 presets): the DVC mechanics need a few materials, not the library (the whole
+#: library, 182 presets, made every repro and each kill's reruns spend most of their time on sample and render)
+TINY_CLASSES = ["fabric", "metal", "stone", "wood"]
 TINY = {
-    "sample": {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8},
+    "sample": {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8, "classes": TINY_CLASSES},
     "blend": {"count": 8, "seed": 0, "alpha_low": 0.2, "alpha_high": 0.8, "mode": "scalar", "chunk": 8},
     "render": {"views": 2, "res": 64, "spp": 1, "light": "point", "sampler": "centre", "seed": 0, "chunk": 2},
     "train": {"config_preset": "compact", "model": {"base_width": 4, "max_width": 8, "levels": 3},
@@ -41,6 +44,11 @@ def sh(cmd, cwd, check=True, env=None, **kw):
     if check and r.returncode != 0:
         raise AssertionError(f"{cmd} failed ({r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
     return r
+
+
+# one xdist worker for the module: the kill tests reuse the project that the repro test (or the previous kill) brought
+# up to date; spread over two workers, each made its own project and reran every stage upstream of its kill
+pytestmark = pytest.mark.xdist_group("dvc_pipeline")
 
 
 @pytest.fixture(scope="module")
@@ -85,7 +93,9 @@ KILLS = {
     "sample": ({"sample": {"seed": 1, "chunk": 1}}, "data/variants.zarr.partial/.done", 3),
     "blend": ({"blend": {"seed": 1, "chunk": 1, "count": 40}}, "data/blends.zarr.partial/.done", 2),
     "render": ({"render": {"seed": 1, "chunk": 1}}, "data/renders.zarr.partial/.done", 3),
-    "fit": ({"train": {"optim": {"seed": 1, "iterations": 400, "checkpoint_every": 2}}}, "runs/train/checkpoint.pt",
+    # 120 steps: ~6 s at the tiny model's ~20 it/s, so the kill (within 20 ms of the step-2 checkpoint) lands with
+    # ~5 s to spare on this machine and seconds more on a loaded one; each of the test's two fits runs them all
+    "fit": ({"train": {"optim": {"seed": 1, "iterations": 120, "checkpoint_every": 2}}}, "runs/train/checkpoint.pt",
             None),
 }
 #: stage -> (an array of its output store, its number of dimensions): whose chunk files show a resume kept them.
