@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import srgb
 from .errors import SvgenError
 from .log import get_logger
 
@@ -41,15 +42,11 @@ class ImageError(SvgenError):
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
     """Linear [0,1] -> sRGB-encoded [0,1] (float32)."""
-    from . import srgb
-
     return srgb.encode(np.clip(linear, 0, 1)).astype(np.float32)
 
 
 def srgb_decode(encoded: np.ndarray) -> np.ndarray:
     """sRGB-encoded [0,1] -> linear [0,1] (float32)."""
-    from . import srgb
-
     return srgb.decode(np.clip(encoded, 0, 1)).astype(np.float32)
 
 
