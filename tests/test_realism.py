@@ -91,6 +91,23 @@ def test_correlations_of_linearly_related_maps():
     assert r["r_diffuse_roughness"] == 0.0  # constant roughness
 
 
+def test_diffuse_roughness_correlation_sign():
+    """Roughness a linear function of diffuse Y: r = +1 rising with it, -1 falling (closed form, like the
+    roughness-specular case above)."""
+    rng = np.random.default_rng(2)
+    s = 16
+    diff = rng.random((s, s, 3))
+    dy = diff @ realism.LUMA
+    spec = np.full((s, s, 3), 0.04)
+    flat = np.zeros((s, s, 3))
+    flat[..., 2] = 1
+    rising = realism.correlations(diff, spec, (0.2 + 0.5 * dy)[..., None], flat)
+    assert rising["r_diffuse_roughness"] == pytest.approx(1.0)
+    falling = realism.correlations(diff, spec, (0.9 - 0.6 * dy)[..., None], flat)
+    assert falling["r_diffuse_roughness"] == pytest.approx(-1.0)
+    assert falling["r_roughness_specular"] == 0.0  # constant specular
+
+
 def test_pixel_samples_known_values():
     s = 128
     tilt = np.radians(30.0)
