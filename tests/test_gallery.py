@@ -54,27 +54,41 @@ def page(stores):
 
 
 class _Cards(HTMLParser):
-    """Sections (kind, views row or not, reference or not) and their cards (classes, index, img sources)."""
+    """Sections (kind, views row or not, reference or not) and their cards (classes, index, hidden or not, img
+    sources); the class filter's options (value, text)."""
 
     def __init__(self):
         super().__init__()
         self.sections: list[dict] = []
+        self.options: list[list[str]] = []
+        self._in_option = False
 
     def handle_starttag(self, tag, attrs):
         a = dict(attrs)
         if tag == "section":
             self.sections.append({"views": a["class"] == "with-views", "store": a["data-store"], "cards": []})
         elif tag == "div" and a.get("class") == "card":
-            self.sections[-1]["cards"].append({"classes": a["data-classes"].split("|"),
+            self.sections[-1]["cards"].append({"classes": a["data-classes"].split("|"), "hidden": "hidden" in a,
                                                "index": int(a["data-index"]), "imgs": []})
         elif tag == "img":
             self.sections[-1]["cards"][-1]["imgs"].append(a["src"])
+        elif tag == "option":
+            self.options.append([a["value"], ""])
+        self._in_option = tag == "option"
+
+    def handle_endtag(self, tag):
+        self._in_option = False
+
+    def handle_data(self, data):
+        if self._in_option:
+            self.options[-1][1] += data
 
 
-def _parse(page: Path) -> list[dict]:
+def _parse(page: Path | str, options: bool = False):
+    """The sections of a page (a file, or its HTML as a str); with ``options``, (sections, options) instead."""
     p = _Cards()
-    p.feed(page.read_text())
-    return p.sections
+    p.feed(page if isinstance(page, str) else page.read_text())
+    return (p.sections, p.options) if options else p.sections
 
 
 def _shoot(page: Path, out: Path, fragment: str = "") -> np.ndarray:
@@ -127,6 +141,36 @@ def test_class_filter_from_the_url_hash(page, tmp_path):
     assert 0 < wood < sum(len(s["cards"]) for s in sections)
     shot = _shoot(page, tmp_path / "wood.png", "#class=wood")
     assert _check_drawn(shot, page, "wood") == wood == 2 + 2 + 2
+
+
+def test_class_filter_options_are_the_cards_classes(page):
+    """Every option of the class filter (but "all") has as its value a class the cards carry, and every class a
+    card carries has an option: the filter compares the value with the cards' ``data-classes``."""
+    sections, options = _parse(page, options=True)
+    classes = {c for s in sections for card in s["cards"] for c in card["classes"]}
+    assert options[0] == ["", "all classes"] and len(classes) > 1
+    assert [v for v, _ in options[1:]] == sorted(classes)
+    assert all(v == text for v, text in options[1:])  # the name a user reads is the one the filter uses
+
+
+@needs_chromium
+def test_choosing_a_class_in_the_select_shows_its_cards(page, tmp_path):
+    """The ``<select>`` driven in Chromium as a user does: pick the option that reads "wood", fire ``change``;
+    the page then shows exactly the cards of class wood (the others ``hidden``), in every section."""
+    pick = ("<script>(function(){var s = document.getElementById('cls');"
+            "var o = Array.prototype.find.call(s.options, function(o){return o.text.toLowerCase() === 'wood';});"
+            "s.value = o.value; s.dispatchEvent(new Event('change'));})();</script></body>")
+    driven = tmp_path / "driven.html"  # beside the page's own script, after it: as if the page were open
+    driven.write_text(page.read_text().replace("</body>", pick))
+    dom = subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=10000",
+                          "--dump-dom", driven.as_uri()], check=True, capture_output=True, text=True,
+                         timeout=180).stdout
+    cards = [c for s in _parse(dom) for c in s["cards"]]
+    wood = [not c["hidden"] for c in cards if "wood" in c["classes"]]
+    other = [not c["hidden"] for c in cards if "wood" not in c["classes"]]
+    assert len(wood) == 6 and all(wood), f"{wood.count(False)} of {len(wood)} wood cards hidden"
+    assert other and not any(other), "cards of other classes shown"
+    assert dom.count(" of class wood</span>") == 3  # each section's count names the class chosen
 
 
 def test_thumbnails_are_the_maps_and_views_for_display(page, stores):
