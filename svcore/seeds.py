@@ -28,6 +28,7 @@ STREAMS: dict[str, tuple[str, int]] = {
     "train.loader": ("train", 103),  # the DataLoader's own generator (worker base seeds)
     "train.rank_dropout": ("train", 104),  # dropout of data-parallel rank r >= 1 (rank 0 keeps train.dropout)
     "split.holdout": ("eval", 0),  # which source presets are held out
+    "split.folds": ("eval", 1),  # which reference materials fall in which cross-validation fold
     "realism.split_half": ("eval", 21),  # split s of a reference's materials into halves (stats noise floor)
     "predict_sheet.views": ("eval", 30),  # which views benchmarks/bench_predict_sheet.py shows (per store)
     "gallery.sample": ("gallery", 0),  # which SVBRDFs of a store larger than --max the gallery shows

@@ -62,3 +62,42 @@ def split_record(ids: Sequence[tuple[str, ...]], unit: str, holdout: float = DEF
     return {"rule": RULE, "holdout": holdout, "seed": seed, "seed_stream": "split.holdout", "unit": unit,
             "test_materials": test, "counts": {"train": int(len(tr)), "test": int(len(te)),
                                                "dropped": int(len(set(range(len(ids))) - set(tr) - set(te)))}}
+
+
+def material_folds(names: Sequence[str], k: int, seed: int = DEFAULT_SEED) -> list[list[str]]:
+    """``k`` disjoint folds of the distinct material ``names`` for cross-validation over a reference library.
+
+    The names are sorted, permuted by the ``split.folds`` stream of ``seed`` and dealt round-robin, so fold sizes
+    differ by at most one and the folds depend on the names alone (not on their order or on the folder they came
+    from). A model trained on the materials outside fold ``i`` is evaluated on fold ``i`` only
+    (:func:`check_unseen`).
+
+    Returns:
+        ``k`` sorted lists of names whose union is the distinct names.
+
+    Raises:
+        StoreError: ``k`` < 2 or more folds than names.
+    """
+    distinct = sorted(set(names))
+    if k < 2 or k > len(distinct):
+        raise StoreError(f"{k} folds of {len(distinct)} materials: need 2 <= folds <= materials")
+    order = stream_rng(seed, "split.folds").permutation(len(distinct))
+    return [sorted(distinct[j] for j in order[i::k]) for i in range(k)]
+
+
+def check_unseen(trained: Sequence[tuple[str, ...]], evaluated: Sequence[str]) -> None:
+    """Refuse an evaluation on materials a model was trained on.
+
+    Args:
+        trained: the material names of every training sample (a renders store's ``source_presets()``; the
+            training split of a store holds a subset of them, so this check is the stricter one).
+        evaluated: the material names of the evaluated set.
+
+    Raises:
+        StoreError: naming the materials on both sides.
+    """
+    seen = {n for t in trained for n in t if n}
+    both = sorted(seen & {n for n in evaluated if n})
+    if both:
+        raise StoreError(f"{len(both)} evaluated material(s) were in the training data: {', '.join(both[:5])}"
+                         + (" ..." if len(both) > 5 else ""))

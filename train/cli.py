@@ -80,7 +80,7 @@ svtrain.add_command(fit)
 @svtrain.command("eval")
 @click.option("--checkpoint", "ckpt", default=DEFAULT_RUN, show_default=True,
               help="Run directory, checkpoint file, or 'bundled' (the model shipped with svgen).")
-@click.option("--suite", default=None, help="Evaluation suite: heldout (held-out presets), stress (per category of a `svgen stress` renders store given by --store) or all (every view of --store, e.g. imported 2018 strips). Default: heldout on the checkpoint's training store, all on any other store (training saw none of it); eval.md says which.")
+@click.option("--suite", default=None, help="Evaluation suite: heldout (held-out presets), train (400 training views spread over the training split: does the model fit what it saw?), stress (per category of a `svgen stress` renders store given by --store) or all (every view of --store, e.g. imported 2018 strips). Default: heldout on the checkpoint's training store, all on any other store (training saw none of it); eval.md says which.")
 @click.option("--store", default=None, help="Evaluate on this renders store instead of the training one (in full unless --suite says otherwise).")
 @click.option("--limit", type=click.IntRange(min=1), default=None, help="Evaluate at most this many samples.")
 @click.option("--out", default=None, help="Output directory (default: the run directory).")

@@ -64,6 +64,21 @@ def _heldout(cfg: Config, store: str | None):
     return {"heldout": (src, test)}
 
 
+#: training views the ``train`` suite evaluates, spread evenly over the training split (a store lists its views
+#: material by material, so the first N would be a few materials)
+TRAIN_SUITE_VIEWS = 400
+
+
+def _train(cfg: Config, store: str | None):
+    # can the model fit what it saw? An arm that cannot fit its own training views cannot show an effect elsewhere.
+    data = cfg.data.model_copy(update={"store": store}) if store else cfg.data
+    src = open_source(data)
+    train, _ = split_for(src, data)
+    if len(train) > TRAIN_SUITE_VIEWS:
+        train = train[np.linspace(0, len(train) - 1, TRAIN_SUITE_VIEWS).round().astype(np.int64)]
+    return {"train": (src, train)}
+
+
 def _stress(cfg: Config, store: str | None):
     if not store:
         raise ConfigError("--suite stress needs --store: a renders store of `svgen stress` sets")
@@ -84,6 +99,7 @@ def _all(cfg: Config, store: str | None):
 
 
 register_suite("heldout", _heldout)
+register_suite("train", _train)
 register_suite("stress", _stress)
 register_suite("all", _all)
 
