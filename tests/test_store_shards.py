@@ -150,11 +150,15 @@ def test_a_schema_2_store_stays_readable(variants, reference, tmp_path, monkeypa
 
 @pytest.mark.parametrize("backend", ["local", "s3"])
 @pytest.mark.parametrize("damage,shard,samples,what", [("missing", 0, "0:4", "is missing chunk 0"),
+                                                        ("missing", 1, "4:6", "is missing chunk 1"),
+                                                        ("truncated", 0, "0:4", "has a changed chunk 0"),
                                                         ("truncated", 1, "4:6", "has a changed chunk 1")])
 def test_a_missing_or_truncated_shard_of_several_samples_is_refused(variants, tmp_path, s3, svgen_cli,  # noqa: F811
                                                                      backend, damage, shard, samples, what):
-    """A shard holds a whole task's samples (4, and the partial last one 2): one deleted or cut short is refused
-    by a reader in one line naming the array and every sample it held, on disk and in a bucket alike."""
+    """A shard holds a whole task's samples (4, and the partial last one 2): one deleted or cut short, the first
+    or the last, is refused by a reader in one line naming the array and every sample it held, on disk and in a
+    bucket alike. (The last shard matters: a check that stops one short, or reads the sample count from the
+    shards that exist, would miss it.)"""
     import shutil
 
     import zarr
