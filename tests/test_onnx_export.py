@@ -52,7 +52,8 @@ def flash_photo(h: int, w: int) -> np.ndarray:
     return (255 * np.clip(lobe[..., None] * tex, 0, 1) ** (1 / 2.2)).astype(np.uint8)
 
 
-def test_onnxruntime_matches_torch_on_a_photo_at_two_sizes(run_dir, exported, tmp_path):
+def assert_onnx_matches_torch(run_dir, exported, tmp_path):
+    """onnxruntime and torch agree on a photo at two sizes (a square and a wide batch of 2), maps decoded."""
     path = tmp_path / "photo.jpg"
     Image.fromarray(flash_photo(480, 640)).save(path, quality=95)
     img = read_photo(path)  # the svgen path: sRGB-decoded, linear in [0, 1]
@@ -76,6 +77,23 @@ def test_onnxruntime_matches_torch_on_a_photo_at_two_sizes(run_dir, exported, tm
         n = got[0]
         np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)  # decoded: unit normals
         assert (n[:, 2] > 0).all() and all(0 <= o.min() and o.max() <= 1 for o in got[1:])
+
+
+def test_onnxruntime_matches_torch_on_a_photo_at_two_sizes(run_dir, exported, tmp_path):
+    assert_onnx_matches_torch(run_dir, exported, tmp_path)
+
+
+@pytest.mark.parametrize("option", ["model.coord_channels=true", "model.normal_decoder=true"])
+def test_each_network_option_exports_and_matches_torch(option, tmp_path):
+    """The optional input channels and decoder (#39) export with dynamic axes too: the coordinates follow the size
+    of the photo given, not the size traced."""
+    d = tmp_path / "run"
+    code, _, err = run("fit", "--out", d, "--iterations", 2, *SMALL, "--set", "model.zero_output=false",
+                       "--set", option)
+    assert code == 0, err
+    code, _, err = run("export-model", d, "--format", "onnx", tmp_path / "m.onnx")
+    assert code == 0, err
+    assert_onnx_matches_torch(d, tmp_path / "m.onnx", tmp_path)
 
 
 def test_the_model_records_how_to_call_it(exported, run_dir):

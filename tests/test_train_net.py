@@ -85,7 +85,8 @@ def test_untrained_network_predicts_its_initial_material(zero_output):
         assert spread > 1e-3, spread
 
 
-@pytest.mark.parametrize("flags", [{"fullres_convs": 2}, {"normal_head": True}, {"normal_param": "slope"}])
+@pytest.mark.parametrize("flags", [{"fullres_convs": 2}, {"normal_head": True}, {"normal_param": "slope"},
+                                   {"normal_decoder": True}, {"normal_decoder": True, "fullres_convs": 1}])
 def test_shape_flags_give_unit_normals_and_start_flat(flags):
     """The learn-shape variants (#22): unit normals with z > 0, a flat start under zero_output, and the normal head
     or full-resolution layers actually in the normal's path (a gradient reaches them)."""
@@ -97,7 +98,8 @@ def test_shape_flags_give_unit_normals_and_start_flat(flags):
     torch.testing.assert_close(n.norm(dim=1), torch.ones(2, 32, 32))
     assert (n[:, 2] > 0.999).all()  # flat at the start, up to the small global output bias
     y[:, 0:2].sum().backward()
-    part = net.normal_head if flags.get("normal_head") else (net.fullres if flags.get("fullres_convs") else net.out_conv)
+    part = net.normal_head if flags.get("normal_head") else net.normal_decoder if flags.get("normal_decoder") else (
+        net.fullres if flags.get("fullres_convs") else net.out_conv)
     assert any(p.grad is not None and p.grad.abs().sum() > 0 for p in part.parameters())
 
 
@@ -110,3 +112,67 @@ def test_slope_parameterisation_turns_outputs_into_slopes():
     n = outputs_to_maps(o, "slope")[0, 0:3, 0, 0]
     want = torch.tensor([-0.5, 0.25, 1.0])
     torch.testing.assert_close(n, want / want.norm())
+
+
+def test_pixel_coords_span_the_image_given():
+    """x along the columns, y along the rows, at the pixel centres in (-1, 1), whatever the image's size: a crop
+    gets the coordinates of a whole photo of its size, not of its place in the view."""
+    from train.net import pixel_coords
+
+    c = pixel_coords(torch.rand(2, 3, 2, 4))
+    assert c.shape == (2, 2, 2, 4)
+    torch.testing.assert_close(c[1, 0], torch.tensor([[-0.75, -0.25, 0.25, 0.75]] * 2))
+    torch.testing.assert_close(c[1, 1], torch.tensor([[-0.5] * 4, [0.5] * 4]))
+
+
+def test_coord_channels_reach_the_first_and_the_output_layer():
+    """model.coord_channels: the two channels enter the first encoder convolution and the output layer (the full-
+    resolution skip), and the network's output depends on them."""
+    torch.manual_seed(0)
+    net = SVBRDFNet(ModelConfig(base_width=4, max_width=16, levels=3, coord_channels=True))
+    assert net.enc[0].conv.in_channels == 5 and net.out_conv.in_channels == 4 + 5
+    x = torch.rand(1, 3, 16, 16)
+    net(x).sum().backward()
+    assert net.enc[0].conv.weight.grad[:, 3:].abs().sum() > 0 and net.out_conv.weight.grad[:, -2:].abs().sum() > 0
+    with torch.no_grad():
+        a = net(x)
+        net.out_conv.weight[:, -2:] = 0
+        net.enc[0].conv.weight[:, 3:] = 0
+        assert (net(x) - a).abs().max() > 1e-4  # the coordinates were in use
+
+
+def test_normal_decoder_alone_gives_the_normal():
+    """model.normal_decoder: the normal comes from the second decoder only, the other maps from the main one."""
+    torch.manual_seed(0)
+    net = SVBRDFNet(ModelConfig(base_width=4, max_width=16, levels=3, normal_decoder=True)).eval()
+    assert net.out_conv.out_channels == 7 and net.normal_decoder.out_conv.out_channels == 2
+    x = torch.rand(1, 3, 16, 16)
+    with torch.no_grad():
+        a = net(x)
+        net.out_conv.weight.mul_(2.0)  # the main decoder changes: every map but the normal changes
+        b = net(x)
+        torch.testing.assert_close(a[:, 0:3], b[:, 0:3], rtol=0, atol=0)
+        assert (a[:, 3:] - b[:, 3:]).abs().max() > 1e-4
+        net.normal_decoder.out_conv.weight.mul_(2.0)  # the normal decoder changes: only the normal changes
+        c = net(x)
+        torch.testing.assert_close(b[:, 3:], c[:, 3:], rtol=0, atol=0)
+        assert (b[:, 0:3] - c[:, 0:3]).abs().max() > 1e-4
+
+
+def test_the_options_add_only_the_normal_decoders_parameters():
+    """With the options off there is no trace of them in the weights (the bundled model loads as it always did)."""
+    torch.manual_seed(0)
+    plain = SVBRDFNet(ModelConfig(base_width=4, max_width=16, levels=3))
+    torch.manual_seed(0)
+    both = SVBRDFNet(ModelConfig(base_width=4, max_width=16, levels=3, coord_channels=True, normal_decoder=True))
+    assert not any(k.startswith("normal_decoder") for k in plain.state_dict())
+    extra = set(both.state_dict()) - set(plain.state_dict())
+    assert extra and all(k.startswith("normal_decoder.") for k in extra)
+
+
+def test_normal_head_and_normal_decoder_are_one_choice():
+    from svcore.errors import ConfigError
+    from train.config import resolve
+
+    with pytest.raises(ConfigError, match="normal_head"):
+        resolve("compact", None, {"model.normal_head": True, "model.normal_decoder": True})

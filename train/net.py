@@ -77,6 +77,9 @@ class GlobalConv(nn.Module):
 class SVBRDFNet(nn.Module):
     """Linear flash photo (B, 3, H, W) -> packed maps (B, 10, H, W) (normal, diffuse, specular, roughness).
 
+    Options (ModelConfig): pixel coordinates as two more input channels (coord_channels), a second decoder for
+    the normal (normal_decoder), a separate normal head (normal_head), full-resolution convolutions (fullres_convs).
+
     H and W must be multiples of 2^levels.
     """
 
@@ -86,84 +89,182 @@ class SVBRDFNet(nn.Module):
         w = cfg.widths()
         self.levels = cfg.levels
         track = cfg.global_track
+        self.coord_channels = cfg.coord_channels
+        cimg = 3 + (2 if cfg.coord_channels else 0)  # the (log-mapped) input as the layers see it
         self.g0 = nn.Linear(3, w[0]) if track else None
         self.enc = nn.ModuleList()
-        cin, gdim = 3, w[0]
+        cin, gdim = cimg, w[0]
         for c in w:
             self.enc.append(GlobalConv(cin, c, 4, 2, 1, gdim, track))
             cin, gdim = c, c
-        self.dec = nn.ModuleList()
-        self.drop = nn.ModuleList()
-        for n, i in enumerate(range(cfg.levels - 2, -1, -1)):
-            convs = nn.ModuleList()
-            c_in = cin + w[i]
-            for _ in range(cfg.decoder_convs):
-                convs.append(GlobalConv(c_in, w[i], 3, 1, 1, gdim, track))
-                c_in, gdim = w[i], w[i]
-            self.dec.append(convs)
-            self.drop.append(nn.Dropout(cfg.dropout) if n < cfg.dropout_levels and cfg.dropout > 0 else nn.Identity())
-            cin = w[i]
-        # Optional full-resolution convolutions on the upsampled features + the input image (model.fullres_convs).
-        self.fullres = nn.ModuleList()
-        c_in = cin + 3
-        for _ in range(cfg.fullres_convs):
-            self.fullres.append(GlobalConv(c_in, w[0], 3, 1, 1, gdim, track))
-            c_in, gdim = w[0], w[0]
-        out_in = c_in + (3 if cfg.fullres_convs else 0)  # the image again beside the full-resolution features
+        c_bottom = cin
+        self.dec, self.drop, self.fullres, out_in, gdim = build_decoder(cfg, c_bottom, gdim, cimg)
         # Optional separate normal head (model.normal_head): its own hidden layer, the normal's two outputs.
         self.normal_head = nn.Sequential(nn.Conv2d(out_in, w[0], 3, 1, 1), nn.LeakyReLU(0.2),
                                          nn.Conv2d(w[0], 2, 3, 1, 1)) if cfg.normal_head else None
         self.normal_param = cfg.normal_param
-        # Output layer at full resolution: skip from the input image; no norm, global bias only.
-        self.out_conv = nn.Conv2d(out_in, 9, 3, 1, 1)
-        self.out_bias = nn.Linear(gdim, 9) if track else None
+        # Output layer at full resolution: skip from the input image; no norm, global bias only. With a normal
+        # decoder it gives the 7 channels after the normal's two.
+        n_out = 7 if cfg.normal_decoder else 9
+        self.out_conv = nn.Conv2d(out_in, n_out, 3, 1, 1)
+        self.out_bias = nn.Linear(gdim, n_out) if track else None
         if track:
             nn.init.normal_(self.out_bias.weight, std=0.01)
             nn.init.zeros_(self.out_bias.bias)
+        # Optional second decoder for the normal's two outputs (model.normal_decoder), built last so that the
+        # default network draws its initial weights exactly as before the option existed.
+        self.normal_decoder = NormalDecoder(cfg, c_bottom, w[-1], cimg) if cfg.normal_decoder else None
         # Start from a plausible material, not sigmoid(0) = 0.5 everywhere: an F0 of 0.5 (metal-like) under the
         # rendering loss's lights gives highlights ~10x too bright, and the fastest way down the loss is to shrink
         # the lobe to a mirror (roughness -> floor) rather than to lower F0; the net then stayed there (dvc store,
         # 700 steps: held-out roughness RMSE 0.64, specular 0.39, both far worse than the mean baselines).
         # Started near the data means, the same 450-step probe gave 0.27 / 0.07 (benchmarks/results/train_probes.json).
         with torch.no_grad():
-            self.out_conv.bias.zero_()
-            self.out_conv.bias[2:5] = _logit(INIT_DIFFUSE)
-            self.out_conv.bias[5] = _logit((INIT_ROUGHNESS - ROUGHNESS_MIN) / (1.0 - ROUGHNESS_MIN))
-            self.out_conv.bias[6:9] = _logit(INIT_SPECULAR)
+            b = self.out_conv.bias
+            k = n_out - 7  # where the diffuse starts: after the normal's two channels unless they have a decoder
+            b.zero_()
+            b[k:k + 3] = _logit(INIT_DIFFUSE)
+            b[k + 3] = _logit((INIT_ROUGHNESS - ROUGHNESS_MIN) / (1.0 - ROUGHNESS_MIN))
+            b[k + 4:k + 7] = _logit(INIT_SPECULAR)
             if cfg.zero_output:
                 self.out_conv.weight.zero_()
                 if self.normal_head is not None:
                     self.normal_head[2].weight.zero_()
                     self.normal_head[2].bias.zero_()
+                if self.normal_decoder is not None:
+                    self.normal_decoder.out_conv.weight.zero_()
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         """Args: image (B, 3, H, W) linear in [0, 1]. Returns (B, 10, H, W) packed maps."""
         x0 = log_map(image)
-        g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None
+        g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None  # the image's means, not the coords'
+        if self.coord_channels:
+            x0 = torch.cat([x0, pixel_coords(image)], 1)
         skips = []
         x = x0
         for layer in self.enc:
             x, g = layer(x, g)
             x = F.leaky_relu(x, 0.2)
             skips.append(x)
-        for convs, drop, skip in zip(self.dec, self.drop, reversed(skips[:-1])):
-            x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), skip], 1)
-            for conv in convs:
-                x, g = conv(x, g)
-                x = F.leaky_relu(x, 0.2)
-            x = drop(x)
-        x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), x0], 1)
-        for conv in self.fullres:
-            x, g = conv(x, g)
-            x = F.leaky_relu(x, 0.2)
-        if self.fullres:
-            x = torch.cat([x, x0], 1)
+        x, g_dec = decode(self.dec, self.drop, self.fullres, skips, g, x0)
         o = self.out_conv(x)
         if self.out_bias is not None:
-            o = o + self.out_bias(g)[..., None, None]
+            o = o + self.out_bias(g_dec)[..., None, None]
         if self.normal_head is not None:
             o = torch.cat([self.normal_head(x), o[:, 2:]], 1)
+        if self.normal_decoder is not None:
+            o = torch.cat([self.normal_decoder(skips, g, x0), o], 1)
         return outputs_to_maps(o, self.normal_param)
+
+
+def pixel_coords(image: torch.Tensor) -> torch.Tensor:
+    """The CoordConv channels (model.coord_channels): each pixel centre's position in the image given.
+
+    Built from the image's own shape, so the coordinates always span the photo the network sees: a training crop
+    at training (wherever the crop sat in its view), the whole photo at inference. Built with cumulative sums, not
+    from Python ints, so that an ONNX export keeps H and W dynamic.
+
+    Args:
+        image: (B, C, H, W), any values (only its shape, dtype and device are used).
+
+    Returns:
+        (B, 2, H, W): x = (2j + 1) / W - 1 along the columns (left to right) and y = (2i + 1) / H - 1 along the rows
+        (top to bottom), both in (-1, 1) and symmetric about the image centre.
+    """
+    ones = torch.ones_like(image[:, :1])
+    j = ones.cumsum(3)  # 1 .. W along each row
+    i = ones.cumsum(2)  # 1 .. H along each column
+    return torch.cat([(2.0 * j - 1.0) / j[..., -1:] - 1.0, (2.0 * i - 1.0) / i[:, :, -1:] - 1.0], 1)
+
+
+def build_decoder(cfg: ModelConfig, cin: int, gdim: int, cimg: int
+                  ) -> tuple[nn.ModuleList, nn.ModuleList, nn.ModuleList, int, int]:
+    """The decoder's layers: per level (coarse to fine) its convolutions and dropout, then the full-resolution ones.
+
+    Args:
+        cin: channels of the coarsest encoder level. gdim: size of the global vector it receives.
+        cimg: channels of the network's input as concatenated again at full resolution (3, or 5 with coordinates).
+
+    Returns:
+        (decoder levels, their dropouts, full-resolution convolutions, channels the output layer receives, size of
+        the global vector the output layer receives).
+    """
+    w = cfg.widths()
+    track = cfg.global_track
+    dec, drop = nn.ModuleList(), nn.ModuleList()
+    for n, i in enumerate(range(cfg.levels - 2, -1, -1)):
+        convs = nn.ModuleList()
+        c_in = cin + w[i]
+        for _ in range(cfg.decoder_convs):
+            convs.append(GlobalConv(c_in, w[i], 3, 1, 1, gdim, track))
+            c_in, gdim = w[i], w[i]
+        dec.append(convs)
+        drop.append(nn.Dropout(cfg.dropout) if n < cfg.dropout_levels and cfg.dropout > 0 else nn.Identity())
+        cin = w[i]
+    # Optional full-resolution convolutions on the upsampled features + the input image (model.fullres_convs).
+    fullres = nn.ModuleList()
+    c_in = cin + cimg
+    for _ in range(cfg.fullres_convs):
+        fullres.append(GlobalConv(c_in, w[0], 3, 1, 1, gdim, track))
+        c_in, gdim = w[0], w[0]
+    out_in = c_in + (cimg if cfg.fullres_convs else 0)  # the image again beside the full-resolution features
+    return dec, drop, fullres, out_in, gdim
+
+
+def decode(dec: nn.ModuleList, drop: nn.ModuleList, fullres: nn.ModuleList, skips: list[torch.Tensor],
+           g: torch.Tensor | None, x0: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Run the layers of :func:`build_decoder` from the coarsest encoder level up to full resolution.
+
+    Args:
+        skips: the encoder's outputs, finest first (the last is the coarsest, where decoding starts).
+        g: (B, gdim) the global vector at the coarsest level, or None without the global track.
+        x0: (B, cimg, H, W) the network's (log-mapped) input, concatenated again at full resolution.
+
+    Returns:
+        (B, C, H, W) the features the output layer sees, and the global vector after the last layer.
+    """
+    x = skips[-1]
+    for convs, dp, skip in zip(dec, drop, reversed(skips[:-1])):
+        x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), skip], 1)
+        for conv in convs:
+            x, g = conv(x, g)
+            x = F.leaky_relu(x, 0.2)
+        x = dp(x)
+    x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), x0], 1)
+    for conv in fullres:
+        x, g = conv(x, g)
+        x = F.leaky_relu(x, 0.2)
+    if fullres:
+        x = torch.cat([x, x0], 1)
+    return x, g
+
+
+class NormalDecoder(nn.Module):
+    """A second decoder for the normal's two raw outputs (model.normal_decoder), as SVBRDF-GAN's two decoders.
+
+    The same structure as the main decoder (levels, dropout, full-resolution convolutions, output layer with its
+    global bias), with its own weights, fed by the shared encoder's skips and its global vector.
+
+    Args:
+        cfg: the network's config. cin: channels of the coarsest encoder level. gdim: size of the encoder's global
+            vector. cimg: channels of the network's input.
+    """
+
+    def __init__(self, cfg: ModelConfig, cin: int, gdim: int, cimg: int):
+        super().__init__()
+        self.dec, self.drop, self.fullres, out_in, gdim = build_decoder(cfg, cin, gdim, cimg)
+        self.out_conv = nn.Conv2d(out_in, 2, 3, 1, 1)
+        nn.init.zeros_(self.out_conv.bias)  # a flat normal on average at the start
+        self.out_bias = nn.Linear(gdim, 2) if cfg.global_track else None
+        if self.out_bias is not None:
+            nn.init.normal_(self.out_bias.weight, std=0.01)
+            nn.init.zeros_(self.out_bias.bias)
+
+    def forward(self, skips: list[torch.Tensor], g: torch.Tensor | None, x0: torch.Tensor) -> torch.Tensor:
+        """Encoder skips (finest first), global vector (B, gdim) or None, input (B, cimg, H, W) -> (B, 2, H, W)."""
+        x, g = decode(self.dec, self.drop, self.fullres, skips, g, x0)
+        o = self.out_conv(x)
+        return o if self.out_bias is None else o + self.out_bias(g)[..., None, None]
 
 
 def outputs_to_maps(o: torch.Tensor, normal_param: str = "unit") -> torch.Tensor:
