@@ -65,6 +65,16 @@ up with the image pixel for pixel (svgen's tests hold the two together). Why a f
 stored aligned maps would double the store (about 170 KB more per 256² view) for values that are a pure
 function of what is stored; `svgen export RENDERS OUT --format exr` writes them as files when files are wanted."""
 
+#: the card's first words on xarray (issue 40): why svgen's helper, not plain ``xarray.open_zarr``. What it says of
+#: the plain open, tests/test_open_data.py holds true of every store kind.
+XARRAY_NOTE = (
+    "To read it in xarray, use svgen's `storage.dataset.open_dataset(store)`: it gives float32 maps, `preset` and "
+    "`category` string coordinates, one dask chunk per shard, and attributes that `to_netcdf` writes. Plain "
+    "`xarray.open_zarr(store)` opens the store but falls short: the maps decode to float64 (xarray takes the "
+    "decoded type from the Python type of `scale_factor`, and zarr attributes are JSON, whose numbers read back "
+    "as 64-bit floats), and `to_netcdf` raises TypeError on the nested `svgen` and `config` attributes (netCDF "
+    "attributes are flat); the names are there as the coordinates `preset_name`/`category_name`.")
+
 _LIMITS = {
     "renders": [
         "Synthetic: procedural materials rendered with one BRDF model (GGX, Schlick Fresnel) and only direct light "
@@ -180,9 +190,10 @@ def render_card(group) -> str:
            f"{_WHAT.get(kind, kind)}. {n} samples"
            + (f" x {views} views = {n * views} (image, maps) pairs" if kind == "renders" else "") + ".", "",
            "## What it contains", "",
-           "Every array has the sample axis first (`sample`, chunked along it) and named dimensions, so "
-           "`xarray.open_zarr(store)` opens it; integer codes decode by their `scale_factor`/`add_offset` (xarray "
-           "applies them) or, for the sRGB-encoded images, by the transfer function named in their attributes.", "",
+           XARRAY_NOTE, "",
+           "Every array has the sample axis first (`sample`, chunked along it) and named dimensions; integer codes "
+           "decode by their `scale_factor`/`add_offset` (xarray applies them) or, for the sRGB-encoded images, by "
+           "the transfer function named in their attributes.", "",
            "| array | dims | shape | dtype | decoded value | meaning |", "|---|---|---|---|---|---|"]
     for name, dims, shape, dtype, a in arrays:
         units = f" [{a['units']}]" if "units" in a else ""
