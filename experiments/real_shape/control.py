@@ -30,6 +30,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
@@ -173,6 +174,13 @@ def main(argv=None) -> None:
     ap.add_argument("--steps", type=int, required=True)
     ap.add_argument("--threads", type=int, default=1, help="torch threads per run (every arm the same)")
     ap.add_argument("--train-set", action="append", default=[], help="extra `svtrain fit` arguments (every arm)")
+    ap.add_argument("--phase", choices=("all", "stores", "fit", "eval"), default="all",
+                    help="stop after the stores, or only fit, or only evaluate finished runs (all: everything)")
+    ap.add_argument("--arms", nargs="*", default=None, help="fit only these arms (control, fold0, ...)")
+    ap.add_argument("--net-arm", action="append", default=[], metavar="NAME",
+                    help="a run WORK/runs/NAME trained on the control's store with another model or loss (started "
+                         "by hand with the control's command plus its --set): evaluated on every fold's reference "
+                         "and on the held-out views, paired with the control")
     ap.add_argument("--out", default=None, help="results JSON (default results/control_<steps>.json here)")
     a = ap.parse_args(argv)
     work = Path(a.work).resolve()
@@ -183,18 +191,22 @@ def main(argv=None) -> None:
         check_unseen(store_materials(work / f"fold{i}" / "renders.zarr"), fold)
     runs = {"control": work / "train" / "renders.zarr",
             **{f"fold{i}": work / f"fold{i}" / "renders.zarr" for i in range(len(folds))}}
-    t0 = time.perf_counter()
-    fit_all(a, work, runs, log)
-    fit_s = time.perf_counter() - t0
+    if a.phase == "stores":
+        return
+    if a.phase in ("all", "fit"):
+        fit_all(a, work, {k: v for k, v in runs.items() if a.arms is None or k in a.arms}, log)
+        if a.phase == "fit":
+            return
     res = {"question": "real materials in the training data (folds over the reference) against the svgen-only "
                        "library, from scratch, same seed, steps and config",
            "steps": a.steps, "folds": folds, "per_material": a.per_material, "crop": a.crop,
-           "threads_per_run": a.threads, "train_set": a.train_set, "fit_wall_s_all_arms": round(fit_s),
+           "threads_per_run": a.threads, "train_set": a.train_set,
            "runs": {}, "effect_real_data": {}}
     pairs = []
     for name in runs:
         run = work / "runs" / name
-        r = {"train_views": table(evaluate(run, run / "eval_train", log, "--suite", "train")),
+        fit = json.loads((run / "metrics.json").read_text())
+        r = {"fit_wall_s": fit.get("train_wall_s"), "fit_cpu_s": fit.get("train_cpu_s"), "train_views": table(evaluate(run, run / "eval_train", log, "--suite", "train")),
              "heldout": table(evaluate(run, run / "eval_heldout", log))}
         for i in range(len(folds)):
             if name in ("control", f"fold{i}"):
@@ -204,6 +216,22 @@ def main(argv=None) -> None:
     for i in range(len(folds)):
         pairs.append((work / "runs" / "control" / f"eval_ref{i}", work / "runs" / f"fold{i}" / f"eval_ref{i}"))
     res["effect_real_data"] = pooled_effect(pairs)
+    res["net_arms"] = {}
+    ctl = work / "runs" / "control"
+    for name in a.net_arms:
+        run = work / "runs" / name
+        fit = json.loads((run / "metrics.json").read_text())
+        r = {"model": yaml.safe_load((run / "config.yaml").read_text())["train"]["model"], "fit_wall_s": fit.get("train_wall_s"),
+             "fit_cpu_s": fit.get("train_cpu_s"),
+             "train_views": table(evaluate(run, run / "eval_train", log, "--suite", "train")),
+             "heldout": table(evaluate(run, run / "eval_heldout", log))}
+        for i in range(len(folds)):
+            r[f"reference_fold{i}"] = table(evaluate(run, run / f"eval_ref{i}", log, "--store",
+                                                     str(work / f"fold{i}" / "ref" / "renders.zarr")))
+        r["effect_reference"] = pooled_effect([(ctl / f"eval_ref{i}", run / f"eval_ref{i}")
+                                               for i in range(len(folds))])
+        r["effect_heldout"] = pooled_effect([(ctl / "eval_heldout", run / "eval_heldout")])
+        res["net_arms"][name] = r
     out = Path(a.out) if a.out else Path(__file__).parent / "results" / f"control_{a.steps}.json"
     out.parent.mkdir(exist_ok=True)
     out.write_text(json.dumps(res, indent=1) + "\n")
