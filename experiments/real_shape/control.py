@@ -106,7 +106,8 @@ def fit_all(a, work: Path, runs: dict[str, Path], log: Path) -> None:
         if (out / "model.pt").is_file():
             continue
         cmd = ["svtrain", "fit", "--params", PARAMS, "--store", str(store), "--out", str(out), "--iterations",
-               str(a.steps), "--workers", "0", "--set", f"optim.threads={a.threads}", *a.train_set]
+               str(a.steps), "--workers", "0", "--set", f"optim.threads={a.threads}", "--set", f"optim.lr={a.lr}",
+               *a.train_set]
         f = open(work / f"fit_{name}.log", "a")
         f.write("$ " + " ".join(cmd) + "\n")
         f.flush()
@@ -172,6 +173,9 @@ def main(argv=None) -> None:
     ap.add_argument("--per-material", type=int, default=15, help="perturbed variants per real training material")
     ap.add_argument("--crop", type=float, default=1.0, help="physical scale of the evaluated reference")
     ap.add_argument("--steps", type=int, required=True)
+    ap.add_argument("--lr", type=float, default=5e-4,
+                    help="Adam learning rate of every arm (params.yaml's 1e-3 diverged at step 700 in a 1-thread "
+                         "control: loss 1.4 -> 54, normals saturated)")
     ap.add_argument("--threads", type=int, default=1, help="torch threads per run (every arm the same)")
     ap.add_argument("--train-set", action="append", default=[], help="extra `svtrain fit` arguments (every arm)")
     ap.add_argument("--phase", choices=("all", "stores", "fit", "eval"), default="all",
@@ -200,7 +204,7 @@ def main(argv=None) -> None:
     res = {"question": "real materials in the training data (folds over the reference) against the svgen-only "
                        "library, from scratch, same seed, steps and config",
            "steps": a.steps, "folds": folds, "per_material": a.per_material, "crop": a.crop,
-           "threads_per_run": a.threads, "train_set": a.train_set,
+           "threads_per_run": a.threads, "lr": a.lr, "train_set": a.train_set,
            "runs": {}, "effect_real_data": {}}
     pairs = []
     for name in runs:
