@@ -2,9 +2,9 @@
 
 :meth:`storage.local.StoreWriter.finalize` writes it into the store before the store is moved into place (so a
 partial store never has one), and ``svgen card STORE [--write]`` prints or regenerates it. It holds nothing that
-is not in the store. Its "How it was made" prints the store's CF ``history`` (the commands that wrote it, with
-their UTC times, :mod:`svcore.history`): the one part of the card, like that attribute, that differs between two
-runs of the same configuration.
+is not in the store. Its "How it was made" prints the store's CF ``history`` (the commands that wrote it, normalised
+by :mod:`svcore.history`: no time, paths relative to the store's directory, no worker options), so that, like the
+rest of the store, the card is a function of the seed, code, configuration and inputs.
 
 Pairing an image with its maps: the aligned maps are not stored, they are the base maps under the view's
 transform. The card states that transform as a formula rather than offering an export of aligned maps: the
@@ -186,7 +186,7 @@ def render_card(group) -> str:
     versions = meta.get("versions", {})
     out = ["---", card_data.to_yaml().rstrip(), "---", "",
            f"# svgen {kind} store", "",
-           f"A zarr v3 store written by svgen (version `{versions.get('svgen', 'unknown')}`): "
+           f"A zarr v3 store written by svgen (`{versions.get('svgen', 'unknown')}`): "
            f"{_WHAT.get(kind, kind)}. {n} samples"
            + (f" x {views} views = {n * views} (image, maps) pairs" if kind == "renders" else "") + ".", "",
            "## What it contains", "",
@@ -229,8 +229,9 @@ def render_card(group) -> str:
                 "base materials)."]
     history = attrs.get("history")
     if history:  # recorded (svcore.history): what was typed, not a reconstruction
-        made = ["The commands that wrote it (the store's CF `history` attribute: UTC time, then the command line "
-                "without storage options):", "", "```", history, "```", "",
+        made = ["The commands that wrote it (the store's CF `history` attribute; `OUT` is this store, other paths are "
+                "relative to its directory, and options that change no byte, such as worker counts, storage options "
+                "and the time, are not recorded):", "", "```", history, "```", "",
                 f"The resolved `{section}:` section of `params.yaml` (`{cmd}` reproduces it; the whole "
                 "configuration, with the inputs' identities, is the store's `config` attribute):"]
     else:  # a store written before history was recorded
@@ -245,7 +246,12 @@ def render_card(group) -> str:
         out += ["", "Inputs (paths relative to this store's directory):", ""]
         out += [f"- `{i.get('path')}`: {i.get('kind')}, {i.get('n')} samples, config hash `{i.get('config_hash')}`"
                 for i in attrs["inputs"]]
-    out += ["", "Versions: " + ", ".join(f"{k} {v}" for k, v in sorted(versions.items())) + ".", "",
+    out += ["", "Versions: " + ", ".join(f"{k} {v}" for k, v in sorted(versions.items())) + "."]
+    if "svgen_code_of" in versions:  # stores before it named the commit (the package version) instead
+        out += ["", "The svgen code is named by `svgen_code`, the sha256 of the source that module "
+                    f"`{versions['svgen_code_of']}` can run (it and the project modules it imports): any checkout "
+                    "of that code writes these bytes."]
+    out += ["",
             "## Intended use", "",
             "Training and evaluating single-image SVBRDF capture networks (Deschaintre et al. 2018), and studying "
             "their failure cases. Not a catalogue of real materials: do not read measured reflectance into it.", "",

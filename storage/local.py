@@ -58,8 +58,8 @@ import zarr
 from zarr.codecs import Crc32cCodec, ZstdCodec
 
 from svcore.errors import StoreError
-from svcore.history import appended, history_line
-from svcore.versions import library_versions
+from svcore.history import OUT, appended, history_line
+from svcore.versions import store_versions
 
 from .card import DATA_LICENSE
 from .objstore import is_object_url, local_path, normalize_url
@@ -131,11 +131,15 @@ def config_hash(config: dict) -> str:
     return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
-def _store_versions() -> dict[str, str]:
-    """The versions a store records: the libraries', and ``svgen``, the running code's (git describe in a checkout,
-    :func:`svcore.versions.svgen_version`). It names the checkout, so two runs compared byte for byte must run the
-    same code tree (tests/test_dvc_pipeline.py runs its reference with the ``svgen`` that ``dvc repro`` runs)."""
-    return library_versions()
+#: the module whose code a store made by a writer used on its own (benchmarks, tests) records: the writer's.
+WRITER_CODE = __name__
+
+
+def _store_versions(code_of: str) -> dict[str, str]:
+    """The versions a store records (:func:`svcore.versions.store_versions`): the libraries', and the digest of the
+    source that module ``code_of`` (the stage's) can run; never the package version, which names the commit, so
+    that every checkout of the same code writes the same bytes."""
+    return store_versions(code_of)
 
 
 def inside(path: str | os.PathLike, other: str | os.PathLike) -> bool:
@@ -176,6 +180,19 @@ def recorded_path(path: str | os.PathLike, out: str | os.PathLike) -> str:
     if is_object_url(out):
         return str(Path(local_path(path)).resolve())
     return os.path.relpath(Path(local_path(path)).resolve(), Path(local_path(out)).resolve().parent)
+
+
+def history_path(path: str | os.PathLike, out: str | os.PathLike) -> str:
+    """How a store's CF history names a path given to the command that writes it (:mod:`svcore.history`):
+    :data:`svcore.history.OUT` for the store itself, any other path as the store records an input
+    (:func:`recorded_path`), so neither the working directory nor the spelling changes a byte."""
+    rec = recorded_path(path, out)
+    return OUT if rec == recorded_path(out, out) else rec
+
+
+def _history_line(out: str | os.PathLike) -> str:
+    """The line the running command adds to the history of the store at ``out``."""
+    return history_line(lambda p: history_path(p, out))
 
 
 def _compressors():
@@ -221,31 +238,34 @@ def create_arrays(g: zarr.Group, arrays: dict[str, ArraySpec], n: int, chunk: in
 
 
 def creation_attrs(kind: str, hash_: str, n: int, chunk: int, arrays: dict[str, ArraySpec], config: dict,
-                   attrs: dict) -> dict:
-    """The group attributes a new store is created with (``complete: false``), for both backends."""
+                   attrs: dict, code_of: str, out: str | os.PathLike) -> dict:
+    """The group attributes a new store at ``out`` is created with (``complete: false``), for both backends; its
+    code is what module ``code_of`` can run (:func:`_store_versions`)."""
+    versions = _store_versions(code_of)
     return {
         "svgen": {
             "kind": kind, "schema_version": SCHEMA_VERSION, "complete": False, "config_hash": hash_,
             "n": n, "chunk": chunk,
             "arrays": {k: {"shape": list(v.shape), "dtype": v.dtype, "encoding": v.encoding, "space": v.space}
                        for k, v in arrays.items()},
-            "versions": _store_versions(),
+            "versions": versions,
         },
         "config": config,
         **attrs,
         # global CF attributes (xarray shows them; CF: the command that made it is `history`, svcore.history, and a
-        # resume appends its own line)
+        # resume by another command line appends its own)
         "Conventions": "CF-1.11",
         "title": f"svgen {kind} store",
-        "source": f"svgen {_store_versions()['svgen']}",
+        "source": f"svgen ({versions['svgen']})",
         "license": DATA_LICENSE if "import" not in attrs else "each imported material's own (attribute 'materials')",
-        "history": history_line(),
+        "history": _history_line(out),
     }
 
 
-def append_history(g: zarr.Group) -> None:
-    """Append the current command to the CF ``history`` of a partial store being resumed."""
-    g.attrs["history"] = appended(dict(g.attrs).get("history"))
+def append_history(g: zarr.Group, out: str | os.PathLike) -> None:
+    """Append the current command to the CF ``history`` of the partial store of ``out`` being resumed (unless the
+    same command started it: :func:`svcore.history.appended`)."""
+    g.attrs["history"] = appended(dict(g.attrs).get("history"), _history_line(out))
 
 
 class StoreWriter:
@@ -260,10 +280,11 @@ class StoreWriter:
         config: the resolved stage configuration; its hash decides whether a partial store may be resumed.
         attrs: further attributes (parameters, seeds, tables) written at creation.
         inputs: the stores this run reads; an output inside one of them is refused.
+        code_of: the module whose source (with what it imports) the store names as its code: the stage's.
     """
 
     def __init__(self, path, kind: str, n: int, chunk: int, arrays: dict[str, ArraySpec], config: dict,
-                 attrs: dict | None = None, inputs=()):
+                 attrs: dict | None = None, inputs=(), code_of: str = WRITER_CODE):
         if is_object_url(path):  # s3://…: the commit protocol without rename or flock (storage.store.open_writer)
             raise StoreError(f"{path}: an object-store URL; its writer is storage.store.open_writer's")
         self.final = Path(local_path(path))
@@ -274,6 +295,7 @@ class StoreWriter:
         self.config = config
         self.hash = config_hash(config)
         self.attrs = attrs or {}
+        self.code_of = code_of
         self._lock_fd: int | None = None
         if n <= 0:
             raise StoreError(f"nothing to write: {kind} store with {n} samples")
@@ -306,7 +328,7 @@ class StoreWriter:
             if self._started():
                 self._check_resumable()
                 (self.partial / DONE_DIR).mkdir(exist_ok=True)
-                append_history(zarr.open_group(self.partial, mode="r+"))
+                append_history(zarr.open_group(self.partial, mode="r+"), self.final)
             else:
                 self._create()
         except BaseException:
@@ -352,7 +374,8 @@ class StoreWriter:
         shutil.rmtree(self.creating, ignore_errors=True)  # a creation cut short by a kill
         g = zarr.open_group(self.creating, mode="w", zarr_format=3)
         create_arrays(g, self.arrays, self.n, self.chunk)
-        g.attrs.update(creation_attrs(self.kind, self.hash, self.n, self.chunk, self.arrays, self.config, self.attrs))
+        g.attrs.update(creation_attrs(self.kind, self.hash, self.n, self.chunk, self.arrays, self.config, self.attrs,
+                                      self.code_of, self.final))
         (self.creating / DONE_DIR).mkdir()
         _kill_hook("create")
         if self.partial.exists():  # a half-created partial of an older svgen (see _started): holds no chunk
@@ -402,7 +425,7 @@ class StoreWriter:
         meta.update(attrs or {})
         meta["svgen"] = {**meta["svgen"], "complete": True, "manifest": MANIFEST,
                          "schema_version": finished_schema(meta["svgen"])}
-        now = _store_versions()["svgen"]
+        now = _store_versions(self.code_of)["svgen"]
         if meta["svgen"].get("versions", {}).get("svgen") != now:  # resumed by other code than started it
             meta["svgen"]["versions"] = {**meta["svgen"].get("versions", {}), "svgen_finished_by": now}
         from .labels import write_labels

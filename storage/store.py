@@ -25,12 +25,12 @@ from .store_object import ObjectStoreWriter, open_object_store, verify_object_st
 
 
 def open_writer(path, kind: str, n: int, chunk: int, arrays: dict[str, ArraySpec], config: dict,
-                attrs: dict | None = None, inputs=()) -> StoreWriter:
+                attrs: dict | None = None, inputs=(), code_of: str = local.WRITER_CODE) -> StoreWriter:
     """The writer of the store at ``path`` (use as a context manager): :class:`storage.local.StoreWriter` for a
     local path, :class:`storage.store_object.ObjectStoreWriter` for an ``s3://`` URL. Arguments: see
     :class:`storage.local.StoreWriter`."""
     cls = ObjectStoreWriter if is_object_url(path) else StoreWriter
-    return cls(path, kind, n, chunk, arrays, config, attrs, inputs=inputs)
+    return cls(path, kind, n, chunk, arrays, config, attrs, inputs=inputs, code_of=code_of)
 
 
 def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, np.ndarray]) -> None:

@@ -64,13 +64,14 @@ class ObjectStoreWriter(S.StoreWriter):
     """
 
     def __init__(self, path, kind: str, n: int, chunk: int, arrays: dict[str, S.ArraySpec], config: dict,
-                 attrs: dict | None = None, inputs=()):
+                 attrs: dict | None = None, inputs=(), code_of: str = S.WRITER_CODE):
         self.loc = ObjectLocation(str(path))
         self.final = self.partial = self.loc.url
         self.lockkey = self.loc.sibling(LOCK_SUFFIX)
         self.kind, self.n, self.chunk = kind, int(n), int(chunk)
         self.arrays, self.config, self.hash = arrays, config, S.config_hash(config)
         self.attrs = attrs or {}
+        self.code_of = code_of
         self._token: str | None = None
         self._beat: threading.Thread | None = None
         self._stop = threading.Event()
@@ -92,7 +93,7 @@ class ObjectStoreWriter(S.StoreWriter):
                     raise StoreError(f"output {self.final} already exists; choose another path or delete it")
                 if self._started(meta):
                     self._check_resumable(meta)
-                    S.append_history(zarr.open_group(self.loc.zarr_store(read_only=False), mode="r+"))
+                    S.append_history(zarr.open_group(self.loc.zarr_store(read_only=False), mode="r+"), self.final)
                 else:
                     self._create()
             except BaseException:
@@ -139,7 +140,7 @@ class ObjectStoreWriter(S.StoreWriter):
         S._kill_hook("create")
         # the svgen attributes last: until they exist the prefix is a creation cut short, recreated by a rerun
         g.attrs.update(S.creation_attrs(self.kind, self.hash, self.n, self.chunk, self.arrays, self.config,
-                                        self.attrs))
+                                        self.attrs, self.code_of, self.final))
 
     # -- the lock --------------------------------------------------------------------------------
     def _lock(self) -> None:

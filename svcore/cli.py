@@ -85,9 +85,6 @@ def _quiet_unraisable(unraisable) -> None:
 
 
 def _run_cli(group: click.Group, prog: str, argv=None) -> int:
-    from .history import set_command
-
-    set_command(prog, sys.argv[1:] if argv is None else argv)  # what a store records as its CF history
     try:
         group.main(args=argv, prog_name=prog, standalone_mode=False)
         return 0
@@ -165,7 +162,8 @@ def _param(key: str) -> str:
     return "cfg__" + key.replace(".", "__")
 
 
-def config_command(cls, flags: dict[str, str], envvars: dict[str, str] | None = None, **command_kw):
+def config_command(cls, flags: dict[str, str], envvars: dict[str, str] | None = None, paths: tuple[str, ...] = (),
+                   **command_kw):
     """Decorator: a click command configured by ``cls``.
 
     Adds ``--config-preset``, ``--params FILE``, ``--set KEY=VALUE`` (repeatable), ``--print-config``, and one
@@ -175,6 +173,8 @@ def config_command(cls, flags: dict[str, str], envvars: dict[str, str] | None = 
     params.yaml YAML and exits 0 before the command runs. ``envvars`` (dotted key -> environment variable) lets
     a machine setting's flag be read from the environment when it is not given (it then wins over params.yaml
     like the flag would): settings such as worker counts, which change no output byte, stay out of params.yaml.
+    ``paths`` names the keys whose values are paths: their flags are ``click.Path`` options, which a store's
+    history records relative to the store (:mod:`svcore.history`).
     """
     from .config import PRESET_FLAG, field, preset_values
 
@@ -191,6 +191,7 @@ def config_command(cls, flags: dict[str, str], envvars: dict[str, str] | None = 
         for key, flag in reversed(list(flags.items())):
             info = field(cls, key)
             typ, multiple = _click_type(info.annotation)
+            typ = click.Path() if key in paths else typ
             doc = " ".join((info.description or "").split())
             if "/" in flag:  # a boolean switch pair
                 f = click.option(flag, _param(key), default=None,

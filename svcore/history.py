@@ -1,64 +1,93 @@
-"""The command line a store records as CF ``history``: what the user typed, minus what must not be kept.
+"""The command a store records as CF ``history``: what the user ran, normalised so that it names no time and no place.
 
-:func:`svcore.cli.run_cli` records the command being run (:func:`set_command`); a store writer appends one line,
-``<UTC ISO time> <command>``, to the store's ``history`` attribute when it creates the store and each time a
-command resumes it (CF conventions: "a list of the applications that have modified the original data", newest
-last). ``--storage-option`` values (s3fs credentials, endpoints) are dropped, and so is the user-info part of a
-URL (``s3://KEY:SECRET@bucket``).
+A store writer records :func:`history_line` when it creates the store, and :func:`appended` adds it when a command
+resumes the store (CF conventions: "a list of the applications that have modified the original data", newest
+last). The line is the running click command (``svgen render ...``) rebuilt from what click parsed, so that the
+bytes of a store are a function of the seed, the code, the configuration and the inputs, and of nothing else:
 
-``history`` is the one attribute of a store that is not a pure function of (seed, configuration, code): it names
-when and how the store was made, so two stores made by the same configuration differ in it and in the card's
-"How it was made" lines that print it, and in nothing else (tests compare stores through
-``tests/conftest.py``'s ``tree_digest``, which leaves out exactly these).
+- no time (CF recommends one per line, but a time would make two runs of one command write different bytes, and
+  DVC hash them apart: a fresh clone's ``dvc repro`` would leave ``dvc.lock`` changed);
+- paths as the store records its inputs (``storage.local.recorded_path``: relative to the directory that holds
+  the store, whatever the working directory and spelling), the store itself as :data:`OUT`. A path is the value of
+  a ``click.Path`` parameter (a config key's flag is one when its command names the key in
+  ``config_command(paths=...)``); a path inside a ``--set`` value is kept as typed;
+- only the options given on the command line, in the command's own order, each with its parsed value
+  (``--res=16`` and ``--res 16`` are one line), and none that changes how a command runs but never what it writes
+  (:class:`RuntimeOption`: worker counts, a scheduler address; ``--storage-option``, which may hold credentials,
+  is never exposed to the command); user-info in a URL (``s3://KEY:SECRET@bucket``) is dropped;
+- a resume by the same command adds no line (a run killed and rerun writes what an uninterrupted one does); another
+  command line that resumes the store (other flags for the same configuration) adds its own.
+
+Two spellings of one configuration (``--params`` against the same values as flags) are two commands, so they
+record different lines. Through svgen's Python API (no click command runs) the line says so.
 """
 from __future__ import annotations
 
-import datetime as _dt
 import re
-import shlex
+from typing import Callable
 
-#: the options whose values are never recorded (s3fs options: credentials, endpoints)
-SECRET_OPTIONS = ("--storage-option",)
+import click
+from click.core import ParameterSource
+
+#: how the history names the store being written (what the card's reconstructed commands call it too)
+OUT = "OUT"
+#: the line of a store written through svgen's Python API rather than a command
+API = "(svgen's Python API)"
 _USERINFO = re.compile(r"^([a-zA-Z][a-zA-Z0-9+.-]*://)[^/@]*@")
-_command: list[str] | None = None
 
 
-def set_command(prog: str, args) -> None:
-    """Record the command being run (``prog`` and its arguments as given)."""
-    global _command
-    _command = [prog, *(str(a) for a in args)]
+class RuntimeOption(click.Option):
+    """A click option that changes how a command runs, never what it writes (worker counts, a scheduler): the
+    history leaves it out, so the bytes of a store do not depend on it. Declare it with ``cls=RuntimeOption``."""
 
 
-def clean_args(args: list[str]) -> list[str]:
-    """``args`` without :data:`SECRET_OPTIONS` (and their values) and without user-info in URLs."""
-    out, skip = [], False
-    for a in args:
-        if skip:
-            skip = False
+def history_line(recorded: Callable[[str], str]) -> str:
+    """One line of CF ``history``: the running click command, normalised (see the module), as
+    ``prog sub ARGUMENTS... --option VALUE...``.
+
+    Args:
+        recorded: how the store records a path given to a ``click.Path`` parameter (relative to the store's
+            directory; :data:`OUT` for the store itself).
+
+    Returns:
+        One shell-quoted line, or :data:`API` when no click command is running.
+    """
+    import shlex
+
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return API
+    names = []
+    c = ctx
+    while c is not None:
+        names.insert(0, c.info_name)
+        c = c.parent
+    arguments, options = [], []
+    for p in ctx.command.params:
+        if isinstance(p, RuntimeOption) or p.name not in ctx.params \
+                or ctx.get_parameter_source(p.name) is not ParameterSource.COMMANDLINE:
             continue
-        if a in SECRET_OPTIONS:
-            skip = True
-            continue
-        if any(a.startswith(o + "=") for o in SECRET_OPTIONS):
-            continue
-        out.append(_USERINFO.sub(r"\1", a))
-    return out
+        words = _words(p, ctx.params[p.name], recorded)
+        (options if isinstance(p, click.Option) else arguments).extend(words)
+    return shlex.join([*names, *arguments, *options])
 
 
-def command_line() -> str:
-    """The recorded command, cleaned and shell-quoted; a note when svgen runs through its Python API."""
-    if _command is None:
-        return "(svgen's Python API)"
-    return shlex.join(clean_args(_command))
+def _words(p: click.Parameter, value, recorded: Callable[[str], str]) -> list[str]:
+    """The command-line words of parameter ``p`` with its parsed ``value`` (a tuple when repeatable)."""
+    def text(v) -> str:
+        v = _USERINFO.sub(r"\1", str(v))
+        return recorded(v) if isinstance(p.type, click.Path) else v
+
+    if isinstance(p, click.Argument):
+        return [text(v) for v in (value if isinstance(value, tuple) else (value,))]
+    if p.is_flag and p.is_bool_flag:
+        return [p.opts[0]] if value else p.secondary_opts[:1]
+    values = value if p.multiple else (value,)
+    return [w for v in values for w in (p.opts[0], *(text(x) for x in (v if p.nargs > 1 else (v,))))]
 
 
-def history_line(now: _dt.datetime | None = None) -> str:
-    """``<UTC ISO time, seconds> <command>``: one line of CF ``history``."""
-    now = now or _dt.datetime.now(_dt.timezone.utc)
-    return f"{now.strftime('%Y-%m-%dT%H:%M:%SZ')} {command_line()}"
-
-
-def appended(history: str | None, line: str | None = None) -> str:
-    """``history`` with one more line (the current command's unless ``line``)."""
-    line = line or history_line()
-    return f"{history}\n{line}" if history else line
+def appended(history: str | None, line: str) -> str:
+    """``history`` with ``line`` added, unless it is already the last line (a resume by the same command)."""
+    if not history:
+        return line
+    return history if history.split("\n")[-1] == line else f"{history}\n{line}"

@@ -39,29 +39,12 @@ def rng() -> np.random.Generator:
 
 
 def tree_digest(path: str | os.PathLike) -> dict[str, str]:
-    """relative file path -> sha256 of every file under ``path`` (byte-identity of stores), leaving out a store's
-    CF ``history`` (when and how it was made: svcore.history) from its zarr.json and from its card."""
+    """relative file path -> sha256 of every file under ``path``: the byte-identity of stores, every file included
+    (zarr.json with its CF ``history`` and versions, the card): a store's bytes are a function of its seed, code,
+    configuration and inputs alone (svcore.history, svcore.versions.store_versions)."""
     root = Path(path)
-    return {str(p.relative_to(root)): hashlib.sha256(without_history(root, p)).hexdigest()
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
             for p in sorted(root.rglob("*")) if p.is_file()}
-
-
-def without_history(root: Path, p: Path) -> bytes:
-    """The bytes of ``p``; for a store's group zarr.json and card, without the ``history`` attribute's text."""
-    import json
-
-    data = p.read_bytes()
-    meta = root / "zarr.json"
-    if p.parent != root or p.name not in ("zarr.json", "README.md") or not meta.is_file():
-        return data
-    history = json.loads(meta.read_text()).get("attributes", {}).get("history")
-    if not history:
-        return data
-    if p.name == "README.md":
-        return data.replace(history.encode(), b"<history>")
-    doc = json.loads(data)
-    doc["attributes"].pop("history")
-    return json.dumps(doc, sort_keys=True).encode()
 
 
 @pytest.fixture

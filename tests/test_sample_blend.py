@@ -19,13 +19,15 @@ TWO = ("--preset", "paint/glossy_red", "--preset", "paint/matte_wall")
 
 @pytest.fixture(scope="module")
 def variants(tmp_path_factory):
-    """A tiny variants store written in-process (--workers 0)."""
-    from svcore.config import build
-    from pipeline.sample import run_sample
+    """A tiny variants store written in-process (--workers 0) by the command (whose line the store records: the
+    dask run below is compared with it file for file)."""
+    from pipeline.cli import cli
+    from test_bad_input import call
 
     out = tmp_path_factory.mktemp("v") / "v.zarr"
-    run_sample(out, build(SampleConfig, "tiny", presets=("paint/glossy_red", "paint/matte_wall"), per_preset=3,
-                          chunk=2), workers=0)
+    code, err = call(cli, "svgen", ["sample", out, "--config-preset", "tiny", "--per-preset", 3, "--chunk", 2,
+                                    "--workers", 0, *TWO])
+    assert code == 0, err
     return out
 
 

@@ -45,7 +45,8 @@ PLACE_DEPENDENT = {
     "path": "an input store's path (render, blend: attributes 'inputs' / 'source')",
     "source": "an imported material's source folder (import: 'materials')",
     "sources": "import's source folders ('import')",
-    "history": "the command line, with the output's URL or path and the time (CF history, svcore.history)",
+    "history": "the command line, whose local paths are relative to a local output, absolute for an s3:// one "
+               "(CF history, svcore.history)",
     "stores": "the stores an imported sample re-reads ('imported')",
 }
 

@@ -12,7 +12,7 @@ from ..config import SampleConfig
 @config_command(SampleConfig, {"per_preset": "--per-preset", "size": "--size", "seed": "--seed", "sigma": "--sigma",
                                "presets": "--preset", "classes": "--class", "chunk": "--chunk",
                                "from_stores": "--from", "from_dir": "--from-dir", "per_material": "--per-material",
-                               "only_from": "--only-from/--with-presets"})
+                               "only_from": "--only-from/--with-presets"}, paths=("from_stores", "from_dir"))
 @click.argument("out", type=click.Path(), required=False)
 @parallel_options
 def sample(out, cfg, workers, scheduler_address):

@@ -70,7 +70,9 @@ class Stage:
             StoreError: ``out`` exists or lies inside an input. ConfigError: a chunk task or the store cannot fit.
         """
         attrs = self.attrs(out if is_object_url(out) else Path(local_path(out))) if callable(self.attrs) else self.attrs
-        return open_writer(out, self.kind, self.n, self.chunk, self.arrays, self.config, attrs, inputs=self.inputs)
+        # the store names its code by what the task's module can run (svcore.versions.store_versions)
+        return open_writer(out, self.kind, self.n, self.chunk, self.arrays, self.config, attrs, inputs=self.inputs,
+                           code_of=self.task.__module__)
 
     def task_for(self, w: StoreWriter) -> Callable[[int, int], int]:
         """The picklable ``(chunk id, threads) -> units`` of this stage writing into ``w``'s partial store."""
