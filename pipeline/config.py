@@ -216,7 +216,8 @@ class RenderConfig(StageConfig):
         return ("zoom",) if tuple(self.zoom) == self.DEFAULT_ZOOM else ()
 
 
-ImportLayout = Literal["auto", "folders", "deschaintre"]
+#: the importer's layouts (pipeline.importer.layouts.LAYOUTS, a test holds them equal) and "auto"
+ImportLayout = Literal["auto", "folders", "deschaintre", "matsynth"]
 NormalConvention = Literal["auto", "opengl", "directx"]
 
 
@@ -230,8 +231,10 @@ class ImportConfig(StageConfig):
     """Source folders (a material folder, a tree of them, or a folder of 2018 strips); the command's SRC
     arguments replace them. Empty by default, so the default pipeline imports nothing."""
     layout: ImportLayout = "auto"
-    """folders (one material per folder of map files), deschaintre (5-tile PNG strips), or auto (strips when
-    every image is a PNG 5 times as wide as high, else folders)."""
+    """folders (one material per folder of map files), deschaintre (5-tile PNG strips), matsynth (parquet shards
+    with `datasets` image columns, one material per row: MatSynth's as published on the Hugging Face hub), or auto
+    (matsynth when the sources are .parquet files or folders of them; strips when every image is a PNG 5 times as
+    wide as high; else folders)."""
     size: int = Field(256, ge=16, le=4096)
     """Output map side: sources are centre-cropped to a square and area-averaged down to it."""
     normal_convention: NormalConvention = "auto"
@@ -262,16 +265,35 @@ class ImportConfig(StageConfig):
     chunk: int = Field(4, ge=1)
     """Materials per task: one dask task converts them and writes one zarr shard per array (small: a task holds
     its materials' full-size source maps in memory)."""
+    split: str = Field("", pattern=r"^[A-Za-z0-9_]*$")
+    """matsynth layout: only the shards of this split, named as the Hugging Face hub names them
+    (train-00000-of-00008.parquet, or shards in a folder named train); empty: every shard."""
+    only_category: tuple[str, ...] = Field((), **_LIST)
+    """Import only materials of these categories (as their metadata names them: MatSynth's wood, metal ...);
+    empty: all."""
+    limit: int | None = Field(None, ge=1)
+    """Import at most this many materials: the first, in source order, that pass every check; null: all."""
+    physical_size_unit: Literal["", "m", "cm", "mm"] = ""
+    """matsynth layout: the unit of metadata.physical_size, which MatSynth's dataset card does not state. With
+    capture_cm, a row's tile width in cm is physical_size in this unit; empty with capture_cm: refused (svgen does
+    not guess units)."""
+
+    #: keys added after stores were made, left out of the recorded config at their defaults (same bytes as before)
+    LATER_KEYS: ClassVar[tuple[str, ...]] = ("split", "only_category", "limit", "physical_size_unit")
 
     @model_validator(mode="after")
     def _consistent(self) -> "ImportConfig":
         if "/" in self.category:
             raise ValueError(f"category {self.category!r} must not contain '/'")
-        if self.as_kind == "renders" and self.layout == "folders":
-            raise ValueError("--as renders needs the deschaintre layout (folders hold maps, not photographs)")
+        if self.as_kind == "renders" and self.layout in ("folders", "matsynth"):
+            raise ValueError(f"--as renders needs the deschaintre layout ({self.layout} hold maps, not photographs)")
         if len(self.crop_centre) != 2 or not all(0 <= c <= 1 for c in self.crop_centre):
             raise ValueError(f"crop_centre must be two fractions in [0, 1] (x, y), got {list(self.crop_centre)}")
         return self
+
+    def dropped_keys(self) -> tuple[str, ...]:
+        """Keys left out of the recorded config because they are at their default (same bytes as before)."""
+        return tuple(k for k in self.LATER_KEYS if getattr(self, k) == type(self).model_fields[k].default)
 
 
 class ReferenceConfig(StageConfig):

@@ -84,3 +84,57 @@ def matsynth(root: Path, name: str, s: int, base: np.ndarray, metal: np.ndarray,
     png16(d / "height.png", height)
     (d / "metadata.json").write_text(json.dumps(meta or {"category": "metal", "license": "CC0"}))
     return d
+
+
+#: MatSynth's columns and class names, as its dataset card lists them (gvecchio/MatSynth on the Hugging Face hub)
+MATSYNTH_IMAGES = ("basecolor", "diffuse", "displacement", "height", "metallic", "normal", "opacity", "roughness",
+                   "specular", "blend_mask")
+MATSYNTH_CLASSES = ("ceramic", "concrete", "fabric", "ground", "leather", "marble", "metal", "misc", "plaster",
+                    "plastic", "stone", "terracotta", "wood")
+
+
+def matsynth_schema():
+    """MatSynth's parquet schema (pyarrow), with the `datasets` features in its metadata as `datasets` writes them
+    (the class label's names live there)."""
+    import pyarrow as pa
+
+    image = pa.struct([("bytes", pa.binary()), ("path", pa.string())])
+    strings = pa.list_(pa.string())
+    meta = pa.struct([("authors", strings), ("category", pa.string()), ("description", pa.string()),
+                      ("height_factor", pa.float32()), ("height_mean", pa.float32()), ("license", pa.string()),
+                      ("link", pa.string()), ("maps", strings), ("method", pa.string()), ("name", pa.string()),
+                      ("physical_size", pa.float32()), ("source", pa.string()), ("stationary", pa.bool_()),
+                      ("tags", strings), ("version_date", pa.string())])
+    features = {"name": {"dtype": "string", "_type": "Value"},
+                "category": {"names": list(MATSYNTH_CLASSES), "_type": "ClassLabel"},
+                "metadata": {f.name: {"feature": {"dtype": "string", "_type": "Value"}, "_type": "Sequence"}
+                             if pa.types.is_list(f.type) else {"dtype": {"float": "float32"}.get(str(f.type), str(f.type)),
+                                                               "_type": "Value"} for f in meta},
+                **{c: {"_type": "Image"} for c in MATSYNTH_IMAGES}}
+    fields = [pa.field("name", pa.string()), pa.field("category", pa.int64()), pa.field("metadata", meta)]
+    fields += [pa.field(c, image) for c in MATSYNTH_IMAGES]
+    return pa.schema(fields, metadata={"huggingface": json.dumps({"info": {"features": features}})})
+
+
+def matsynth_row(name: str, category: str, maps: dict[str, bytes], **metadata) -> dict:
+    """One row: ``maps`` column -> encoded image bytes (missing columns are null), ``metadata`` fields by name."""
+    meta = {"authors": ["svgen tests"], "license": "CC0", "source": "svgen fixtures", "name": name,
+            "stationary": True, "physical_size": None, **metadata}
+    row = {"name": name, "category": MATSYNTH_CLASSES.index(category), "metadata": meta}
+    row.update({c: {"bytes": maps[c], "path": f"{name}/{c}.png"} if c in maps else None for c in MATSYNTH_IMAGES})
+    return row
+
+
+def matsynth_shard(path: Path, rows: list[dict], row_group_size: int | None = None) -> Path:
+    """A parquet shard as `datasets` (>= 4) writes one: image leaves PLAIN-encoded and uncompressed, content-defined
+    pages, a page index."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = matsynth_schema()
+    leaves = [f"{c}.{f}" for c in MATSYNTH_IMAGES for f in ("bytes", "path")]
+    pq.write_table(pa.Table.from_pylist(rows, schema=schema), path, row_group_size=row_group_size,
+                   compression={**{c: "snappy" for c in ("name", "category")}, **{leaf: "none" for leaf in leaves}},
+                   use_dictionary=["name"], column_encoding={leaf: "PLAIN" for leaf in leaves},
+                   use_content_defined_chunking=True, write_page_index=True)
+    return path

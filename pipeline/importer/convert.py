@@ -55,6 +55,17 @@ def crop_of(mat: MaterialSource, crop: float, capture_cm: float | None) -> tuple
     return min(1.0, capture_cm / float(stated)), f"capture_cm {capture_cm:g} / physical_size_cm {stated:g}"
 
 
+def centre_of(mat: MaterialSource, centre: tuple[float, float]) -> tuple[tuple[float, float], str | None]:
+    """The crop window's centre of one material and, when it is not ``centre`` (import.crop_centre), why: a
+    material whose metadata says ``stationary: false`` (MatSynth marks materials whose look changes across the
+    tile: one object, a gradient of wear) is cropped at the middle of the tile, where its maker centred it, since a
+    window moved elsewhere may show none of it. (With crop 1 the whole tile is kept and the centre does not
+    matter.)"""
+    if mat.meta.get("stationary") is False:
+        return (0.5, 0.5), "stationary: false (cropped at the centre)"
+    return (float(centre[0]), float(centre[1])), None
+
+
 def preflight(mat: MaterialSource, size: int, allow_upscale: bool, crop: float = 1.0) -> dict[str, ImageInfo]:
     """Headers of every map, checked before anything is written.
 

@@ -120,7 +120,8 @@ def folder_material(folder: Path, names: list[str], convention: str) -> Material
 
 
 def sidecar(path: Path) -> dict:
-    """Licence, category and physical size from a MatSynth-style metadata.json (missing keys are left out).
+    """Licence, category, physical size and stationarity from a MatSynth-style metadata.json (missing keys are left
+    out).
 
     Raises:
         ImportInputError: the file is not JSON.
@@ -134,7 +135,7 @@ def sidecar(path: Path) -> dict:
     out = {}
     for key, names in {"licence": ("license", "licence"), "category": ("category",),
                        "physical_size": ("physical_size", "physical size"), "physical_size_cm": ("physical_size_cm",),
-                       "source_name": ("name",)}.items():
+                       "source_name": ("name",), "stationary": ("stationary",)}.items():
         for k in names:
             if k in d and isinstance(d[k], (str, int, float)):
                 out[key] = d[k]

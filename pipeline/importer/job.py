@@ -26,79 +26,44 @@ from storage.svbrdf_store import encode_maps
 from . import ImportInputError
 from ..config import ImportConfig
 from ..exec.runner import Stage
-from .convert import crop_of, preflight
-from .discover import MaterialSource, find_folders
-from .strips import find_strips, tile_size
+from .discover import MaterialSource
+from .layouts import LAYOUTS, category_of, detect_layout
 
 RECORDS = ".import_records"
 
 
-def detect_layout(sources: list[Path]) -> str:
-    """"deschaintre" when every image under the sources is a PNG 5 times as wide as high, else "folders"."""
-    from .aliases import IMAGE_EXTS
-    from .discover import walk
-    from .readers import info
-
-    imgs = []
-    for s in sources:
-        if s.is_file():
-            imgs.append(s)
-        elif s.is_dir():
-            imgs += [d / n for d, names in walk(s) for n in names if n.lower().endswith(IMAGE_EXTS)]
-    if imgs and all(p.suffix.lower() == ".png" for p in imgs):
-        i = info(imgs[0])
-        if i.width == 5 * i.height:
-            return "deschaintre"
-    return "folders"
-
-
-def plan(cfg: ImportConfig) -> tuple[str, list[MaterialSource]]:
-    """The layout and the materials of an import, every header checked (nothing written yet).
+def plan(cfg: ImportConfig) -> tuple[str, list[MaterialSource], list]:
+    """The layout, the materials of an import and the items skipped (with their reasons), every header checked
+    (nothing written yet).
 
     Raises:
-        ImportInputError: see :func:`find_folders`, :func:`find_strips`, :func:`preflight`.
+        ImportInputError: bad sources (see the layout's find and check), or nothing left to import.
+        ConfigError: options the layout does not take.
     """
     if not cfg.sources:
         raise ImportInputError("no source folder given")
     sources = [Path(s) for s in cfg.sources]
-    layout = detect_layout(sources) if cfg.layout == "auto" else cfg.layout
-    if cfg.as_kind == "renders" and layout != "deschaintre":
-        raise ConfigError("--as renders needs the deschaintre layout (folders hold maps, not photographs)")
-    if layout == "deschaintre" and (cfg.crop < 1 or cfg.capture_cm is not None):
-        raise ConfigError("import.crop and import.capture_cm apply to material folders, not to 2018 strips (their "
-                          "tiles are the published captures)")
-    if layout == "deschaintre":
-        mats = find_strips(sources)
-        for m in mats:
-            t = tile_size(m)
-            if t < cfg.size and not cfg.allow_upscale:
-                raise ImportInputError(f"{m.root}: tiles of {t} pixels are smaller than --size {cfg.size} "
-                                       "(pass --allow-upscale, or a smaller --size)")
-    else:
-        mats = find_folders(sources, cfg.normal_convention)
-        for m in mats:
-            preflight(m, cfg.size, cfg.allow_upscale, crop_of(m, cfg.crop, cfg.capture_cm)[0])
-    return layout, mats
-
-
-def category_of(m: MaterialSource, cfg: ImportConfig) -> str:
-    c = str(m.meta.get("category") or cfg.category or "imported")
-    return c.replace("/", "-")
-
-
-def describe(m: MaterialSource, cfg: ImportConfig, source_root: Path) -> dict:
-    """Provenance of a material known before conversion (paths resolved, so spelling-independent)."""
-    root = m.root.resolve()
-    base = root if root.is_dir() else root.parent  # a strip is a file
-    files = {r: str(p.resolve().relative_to(base) if p.resolve().is_relative_to(base) else p.resolve())
-             for r, p in m.files.items()}
-    d = {"name": m.name, "preset": f"{category_of(m, cfg)}/{m.name}", "source": str(root),
-         "source_relative": str(root.relative_to(source_root)) if root.is_relative_to(source_root) else str(root),
-         "layout": m.layout, "files": files, "bytes": {r: p.stat().st_size for r, p in m.files.items()},
-         "category": category_of(m, cfg), "licence": m.meta.get("licence"), "ignored": m.ignored}
-    if m.meta:
-        d["sidecar"] = m.meta
-    return d
+    name = detect_layout(sources) if cfg.layout == "auto" else cfg.layout
+    layout = LAYOUTS[name]
+    if cfg.as_kind == "renders" and not layout.photos:
+        raise ConfigError(f"--as renders needs the deschaintre layout ({name} sources hold maps, not photographs)")
+    if not layout.crops and (cfg.crop < 1 or cfg.capture_cm is not None):
+        raise ConfigError("import.crop and import.capture_cm apply to material folders and parquet rows, not to "
+                          "2018 strips (their tiles are the published captures)")
+    if cfg.split and not layout.splits:
+        raise ConfigError(f"--split names parquet shards (the matsynth layout), not {name} sources")
+    mats, skipped = layout.find(sources, cfg)
+    if cfg.only_category:
+        found = sorted({category_of(m, cfg) for m in mats})
+        mats = [m for m in mats if category_of(m, cfg) in cfg.only_category]
+        if not mats:
+            raise ImportInputError(f"no material of categor{'y' if len(cfg.only_category) == 1 else 'ies'} "
+                                   f"{', '.join(cfg.only_category)}; the sources have: {', '.join(found) or 'none'}")
+    mats, more = layout.check(mats, cfg)
+    skipped = skipped + more
+    if not mats:
+        raise ImportInputError("nothing to import: every item was skipped\n" + "\n".join(s.line() for s in skipped))
+    return name, mats, skipped
 
 
 def _root_of(m: MaterialSource, sources: list[Path]) -> Path:
@@ -110,27 +75,12 @@ def _root_of(m: MaterialSource, sources: list[Path]) -> Path:
     return r.parent
 
 
-def _convert(m: MaterialSource, cfg: ImportConfig):
-    """(image or None, maps, record) of one material."""
-    if m.layout == "deschaintre":
-        from .strips import split
-
-        return split(m, cfg.size, cfg.input_space)
-    from .convert import convert
-
-    crop, how = crop_of(m, cfg.crop, cfg.capture_cm)
-    maps, rec = convert(m, cfg.size, cfg.allow_upscale, cfg.normal_convention, cfg.height_strength, crop,
-                        tuple(cfg.crop_centre), how)
-    return None, maps, rec
-
-
 def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource], cfg: ImportConfig) -> int:
     """Worker: convert the materials of chunk ``c``, record what was decided, write the whole chunk."""
     start, stop = c * cfg.chunk, min(len(mats), (c + 1) * cfg.chunk)
     maps = {k: [] for k in MAP_NAMES}
     images, records = [], []
-    for m in mats[start:stop]:
-        image, svbrdf, rec = _convert(m, cfg)
+    for image, svbrdf, rec in LAYOUTS[mats[start].layout].convert(mats[start:stop], cfg):
         for k, v in encode_maps(svbrdf).items():
             maps[k].append(v)
         if image is not None:
@@ -177,15 +127,17 @@ def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
     Raises:
         ImportInputError, ConfigError: bad sources or options.
     """
-    layout, mats = plan(cfg)
+    layout, mats, skipped = plan(cfg)
     sources = [Path(s) for s in cfg.sources]
-    described = [describe(m, cfg, _root_of(m, sources)) for m in mats]
+    described = [LAYOUTS[layout].describe(m, cfg, _root_of(m, sources)) for m in mats]
     names = [d["preset"] for d in described]
-    # the materials found (names, files within their source folder, sizes) are the config's identity of the sources:
-    # resuming against changed sources is refused, any spelling or location of the same sources accepted (#15: input
-    # paths never enter the config hash)
-    config = {**{k: v for k, v in cfg.as_dict().items() if k != "sources"}, "layout": layout,
-              "materials": [{k: d[k] for k in ("name", "source_relative", "files", "bytes")} for d in described]}
+    # the materials found (names, files within their source folder or rows of their shard, sizes) are the config's
+    # identity of the sources: resuming against changed sources is refused, any spelling or location of the same
+    # sources accepted (#15: input paths never enter the config hash)
+    drop = ("sources",) + cfg.dropped_keys()
+    config = {**{k: v for k, v in cfg.as_dict().items() if k not in drop}, "layout": layout,
+              "materials": [{k: d[k] for k in ("name", "source_relative", "row", "files", "bytes") if k in d}
+                            for d in described]}
     fixed = {"presets": names, "param_names": {}, "categories": []}
     if cfg.as_kind == "renders":
         from ..render.scene import scene_constants
@@ -211,6 +163,8 @@ def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
                                  # attrs.materials[i].crop)
                                  "crop": {"fraction": cfg.crop, "centre": list(cfg.crop_centre),
                                           "capture_cm": cfg.capture_cm}}}
+        if skipped:  # the rows left out, one reason each (svgen import prints them at the end)
+            a["import"]["skipped"] = [x.as_dict() for x in skipped]
         if kind == "renders":
             a["inputs"] = [{"path": srcs[0], "kind": "deschaintre-strips", "n": len(mats), "config_hash": ""}]
         return a
