@@ -1,6 +1,7 @@
-"""Export a renders store to files other tools read: the 2018 dataset layout, linear EXR, PNG previews.
+"""Export a store to files other tools read: the 2018 dataset layout, linear EXR, PNG previews, parquet.
 
-Formats (a registry: name -> writer of one view):
+Formats (a registry: name -> exporter of a store into an empty folder; the first three write a renders store's
+views one by one through a writer of one view, :func:`per_view`):
 
 * ``deschaintre``: one PNG per view, ``input | normal | diffuse | roughness | specular`` side by side, each
   res x res, 8-bit, maps linear and normals encoded (n + 1) / 2, roughness repeated over RGB -- the layout
@@ -10,6 +11,8 @@ Formats (a registry: name -> writer of one view):
   specular) via OpenEXR, plus the same JSON sidecar.
 * ``png``: per view a folder of previews for people: sRGB-encoded input, diffuse and specular
   (colour-science), encoded normal, roughness as grey.
+* ``parquet``: a renders or variants store as parquet shards with `datasets` image columns and a dataset card
+  (:mod:`pipeline.export_parquet`).
 """
 from __future__ import annotations
 
@@ -31,14 +34,38 @@ from svcore.progress import progress
 
 from storage.store import refuse_inside
 
+#: a writer of one view: (folder, view name, image, aligned maps, sidecar) -> files written
 Writer = Callable[[Path, str, np.ndarray, SVBRDF, dict], list[Path]]
-FORMATS: dict[str, Writer] = {}
+#: an exporter: (store, empty output folder, limit) -> rows (views, samples) written
+Exporter = Callable[[object, Path, "int | None"], int]
+FORMATS: dict[str, Exporter] = {}
 
 
 def register_format(name: str):
-    def deco(fn: Writer) -> Writer:
+    def deco(fn: Exporter) -> Exporter:
         FORMATS[name] = fn
         return fn
+
+    return deco
+
+
+def per_view(name: str):
+    """Register a writer of one view as the format ``name``: every view of a renders store, in order."""
+
+    def deco(write: Writer) -> Writer:
+        def run(store, out: Path, limit: int | None) -> int:
+            from .render.store import RendersReader
+
+            reader = RendersReader(store)
+            n = len(reader) if limit is None else min(limit, len(reader))
+            with progress(n, f"export {name}", unit="view") as bar:
+                for i in range(n):
+                    write(out, f"{i:07d}", reader.image(i), reader.maps(i), view_meta(reader, i))
+                    bar.update(1)
+            return n
+
+        register_format(name)(run)
+        return write
 
     return deco
 
@@ -52,14 +79,14 @@ def _sidecar(path: Path, meta: dict) -> Path:
     return path
 
 
-@register_format("deschaintre")
+@per_view("deschaintre")
 def write_deschaintre(out: Path, name: str, image: np.ndarray, maps: SVBRDF, meta: dict) -> list[Path]:
     strip = np.concatenate([image, encode_normal(maps.normal), maps.diffuse, _rgb(maps.roughness), maps.specular],
                            axis=1)
     return [write_png(out / f"{name}.png", strip), _sidecar(out / f"{name}.json", meta)]
 
 
-@register_format("exr")
+@per_view("exr")
 def write_exr_set(out: Path, name: str, image: np.ndarray, maps: SVBRDF, meta: dict) -> list[Path]:
     d = out / name
     d.mkdir(exist_ok=True)
@@ -68,7 +95,7 @@ def write_exr_set(out: Path, name: str, image: np.ndarray, maps: SVBRDF, meta: d
     return files + [_sidecar(d / "meta.json", meta)]
 
 
-@register_format("png")
+@per_view("png")
 def write_previews(out: Path, name: str, image: np.ndarray, maps: SVBRDF, meta: dict) -> list[Path]:
     d = out / name
     d.mkdir(exist_ok=True)
@@ -95,13 +122,29 @@ FORMAT_ENCODINGS = {"input": "linear LDR [0,1]", "normal": "(n+1)/2 (deschaintre
                     "specular": "linear F0 (deschaintre/exr), sRGB (png)"}
 
 
-#: what an export folder holds, in every format: per view ``0000012.png`` + ``0000012.json`` or a folder ``0000012``
+@register_format("parquet")
+def write_parquet(store, out: Path, limit: int | None) -> int:
+    from .export_parquet import write_parquet as write
+
+    return write(store, out, limit)
+
+
+#: what an export folder holds: per view ``0000012.png`` + ``0000012.json`` or a folder ``0000012``; or (parquet)
+#: ``README.md`` and ``data/`` of shards ``train-00000-of-00002.parquet`` (``.parquet`` before their rename)
 EXPORT_ENTRY = re.compile(r"\d{7}(\.png|\.json)?")
+PARQUET_SHARD = re.compile(r"[A-Za-z0-9_]+-\d{5}(-of-\d{5})?\.parquet")
 
 
 def is_export(path: Path) -> bool:
     """Whether ``path`` is a folder that holds nothing but what an export writes (what ``--force`` may replace)."""
-    return path.is_dir() and not path.is_symlink() and all(EXPORT_ENTRY.fullmatch(p.name) for p in path.iterdir())
+    if not path.is_dir() or path.is_symlink():
+        return False
+    names = {p.name for p in path.iterdir()}
+    if "data" in names:  # a parquet export: README.md (once written) and data/ of shards, nothing else
+        data = path / "data"
+        return names <= {"README.md", "data"} and data.is_dir() and not data.is_symlink() and \
+            all(PARQUET_SHARD.fullmatch(p.name) and p.is_file() for p in data.iterdir())
+    return all(EXPORT_ENTRY.fullmatch(n) for n in names)
 
 
 def _check_out(out: Path, store, force: bool) -> None:
@@ -126,31 +169,31 @@ def _fresh_partial(out: Path) -> Path:
 
 
 def export(store, out, fmt: str, limit: int | None = None, force: bool = False) -> int:
-    """Write every view (or the first ``limit``) of a renders store to ``out`` in format ``fmt``.
+    """Write every view (or the first ``limit``) of a renders store (parquet: or every sample of a variants store)
+    to ``out`` in format ``fmt``.
 
     Writes into ``<out>.partial`` and renames when complete, so a killed export never looks complete. An ``out``
     that holds files is refused unless ``force``, and then replaced only once the new export is complete, and only
     if it is an export (:func:`is_export`): ``--force`` never deletes a folder of other files.
 
     Returns:
-        number of views written.
+        number of views (rows) written.
 
     Raises:
-        StoreError: an unknown format; ``out`` inside the store, existing without ``force``, or not an export.
+        StoreError: an unknown format; a store the format does not read; ``out`` inside the store, existing
+            without ``force``, or not an export.
     """
-    from .render.store import RendersReader
-
     if fmt not in FORMATS:
         raise StoreError(f"unknown export format {fmt!r}; known: {', '.join(FORMATS)}")
     out = Path(out)
     _check_out(out, store, force)
-    reader = RendersReader(store)
     tmp = _fresh_partial(out)
-    n = len(reader) if limit is None else min(limit, len(reader))
-    with progress(n, f"export {fmt}", unit="view") as bar:
-        for i in range(n):
-            FORMATS[fmt](tmp, f"{i:07d}", reader.image(i), reader.maps(i), view_meta(reader, i))
-            bar.update(1)
+    try:
+        n = FORMATS[fmt](store, tmp, limit)
+    except BaseException:
+        if not any(tmp.iterdir()):  # refused before writing (not a store of the right kind): leave nothing behind
+            tmp.rmdir()
+        raise
     if holds_something(out):  # --force, checked above: the old export goes only now that the new one is whole
         shutil.rmtree(out)
     os.replace(tmp, out)  # rename(2) replaces an empty folder

@@ -145,18 +145,20 @@ class SVBRDFStore:
     Args:
         path: store path.
         kind: accepted kinds (default both).
+        cache_bytes: bytes of decoded chunks kept (default :attr:`CACHE_BYTES`; a sequential reader needs one
+            chunk).
     """
 
     CACHE_BYTES = 3 << 30
 
-    def __init__(self, path, kind: str | tuple[str, ...] = KINDS):
+    def __init__(self, path, kind: str | tuple[str, ...] = KINDS, cache_bytes: int | None = None):
         self.path = path
         self.group = open_store(path, kind)
         self.attrs = dict(self.group.attrs)
         self.kind = self.attrs["svgen"]["kind"]
         self.presets: list[str] = list(self.attrs.get("presets", []))
         self.size = int(self.group["diffuse"].shape[1])
-        self._cache = ChunkCache(self.group, self.CACHE_BYTES)
+        self._cache = ChunkCache(self.group, self.CACHE_BYTES if cache_bytes is None else cache_bytes)
 
     def __len__(self) -> int:
         return int(self.group["diffuse"].shape[0])
@@ -167,7 +169,11 @@ class SVBRDFStore:
         Reads go through a per-store cache of whole chunks: random access (blending picks pairs at random)
         would otherwise decompress a whole chunk for every single sample.
         """
-        return decode_maps({k: self._cache.sample(k, i) for k in MAP_NAMES})
+        return decode_maps(self.codes(i))
+
+    def codes(self, i: int) -> dict[str, np.ndarray]:
+        """The stored uint16 codes of sample ``i``'s maps (map name -> (S, S, C)), not decoded (through the cache)."""
+        return {k: self._cache.sample(k, i) for k in MAP_NAMES}
 
     def maps_range(self, start: int, stop: int) -> list[SVBRDF]:
         """Maps of samples [start, stop) with one read per array (fast for whole chunks)."""

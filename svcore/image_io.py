@@ -64,17 +64,43 @@ def write_png(path: str | Path, img: np.ndarray) -> Path:
 
 def write_png16(path: str | Path, img: np.ndarray) -> Path:
     """Write (H, W, C) or (H, W) values in [0, 1] as a 16-bit PNG (grey, grey+alpha, RGB or RGBA; values written
-    as given, no encoding). pypng, since Pillow cannot write 16-bit colour PNGs."""
-    import png
-
+    as given, no encoding): :func:`png_bytes`, since Pillow cannot write 16-bit colour PNGs."""
     path = Path(path)
-    a = np.round(np.clip(np.asarray(img, np.float64), 0, 1) * 65535).astype(np.uint16)
+    path.write_bytes(png_bytes(np.round(np.clip(np.asarray(img, np.float64), 0, 1) * 65535).astype(np.uint16)))
+    return path
+
+
+#: PNG colour type of 1 to 4 channels: grey, grey + alpha, RGB, RGBA
+_PNG_COLOUR = {1: 0, 2: 4, 3: 2, 4: 6}
+
+
+def png_bytes(codes: np.ndarray, level: int = 6) -> bytes:
+    """A PNG file of (H, W) or (H, W, C) uint8 or uint16 codes (C = 1 grey, 2 grey + alpha, 3 RGB, 4 RGBA), written
+    as given. numpy and zlib (pypng's pure-Python writer took 0.3 s for one 256^2 16-bit RGB map; this ~100 times
+    less): every row 'Sub'-filtered (PNG filter type 1, the byte bpp places left subtracted), one IDAT chunk, zlib
+    ``level``: the bytes are a function of the codes and the zlib version."""
+    import struct
+    import zlib
+
+    a = np.asarray(codes)
+    if a.dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"png_bytes takes uint8 or uint16 codes, got {a.dtype}")
     if a.ndim == 2:
         a = a[..., None]
     h, w, c = a.shape
-    with open(path, "wb") as f:
-        png.Writer(w, h, greyscale=c in (1, 2), alpha=c in (2, 4), bitdepth=16).write(f, a.reshape(h, w * c).tolist())
-    return path
+    raw = np.ascontiguousarray(a.astype(">u2") if a.dtype == np.uint16 else a).view(np.uint8).reshape(h, -1)
+    bpp = c * a.dtype.itemsize
+    rows = np.empty((h, raw.shape[1] + 1), np.uint8)
+    rows[:, 0] = 1  # filter type Sub
+    rows[:, 1:1 + bpp] = raw[:, :bpp]
+    rows[:, 1 + bpp:] = raw[:, bpp:] - raw[:, :-bpp]  # modulo 256
+
+    def chunk(tag: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
+
+    header = struct.pack(">IIBBBBB", w, h, a.dtype.itemsize * 8, _PNG_COLOUR[c], 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows.tobytes(), level))
+            + chunk(b"IEND", b""))
 
 
 def _is_16bit(im) -> bool:

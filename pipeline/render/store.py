@@ -160,7 +160,11 @@ class RendersReader:
     def image(self, i: int) -> np.ndarray:
         """View i's render: (R, R, 3) float32 linear in [0, 1], numpy row 0 = image top."""
         s, v = self._split(i)
-        return decode_srgb8(self._cache.sample("image", s)[v])
+        return decode_srgb8(self.image_codes(s)[v])
+
+    def image_codes(self, s: int) -> np.ndarray:
+        """(V, R, R, 3) uint8: the sRGB-encoded codes of SVBRDF s's renders, as stored (not decoded)."""
+        return self._cache.sample("image", s)
 
     def view_params(self, i: int) -> ViewParams:
         """View i's light offset, texture transform and seed."""
