@@ -49,6 +49,32 @@ def test_eval_writes_json_and_table(run_dir, tmp_path):
     assert "| model |" in (tmp_path / "eval.md").read_text()
     assert "95 % interval" in (tmp_path / "eval.md").read_text()
     assert (tmp_path / "eval.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert_spec_stats_of_the_views(run_dir, tmp_path, res)
+
+
+def assert_spec_stats_of_the_views(run_dir, out, res):
+    """eval's specular-copy statistics (#39) are the quartiles over the evaluated views (per_view.csv) of the
+    model's maps and of the ground truth's, each from its own maps, and eval.md shows both."""
+    import csv
+
+    import torch
+
+    from train.checkpoint import load_model
+    from train.data import PairDataset, open_source
+    from train.spec_stats import quartiles, spec_stats
+
+    model, cfg = load_model(run_dir)
+    views = [int(r["view"]) for r in csv.DictReader(open(out / "per_view.csv"))]
+    ds = PairDataset(open_source(cfg.data), views, cfg.data.crop, cfg.optim.seed, train=False)
+    img, gt = (torch.stack([ds[k][i] for k in range(len(ds))]) for i in (0, 1))
+    with torch.no_grad():
+        maps = {"model": model.eval()(img), "ground_truth": gt}
+    assert set(res["specular_copy"]) == set(maps)
+    for who, m in maps.items():
+        for stat, values in spec_stats(m).items():
+            assert res["specular_copy"][who][stat] == pytest.approx(quartiles(values), abs=1e-6), (who, stat)
+    md = (out / "eval.md").read_text()
+    assert "| specular-diffuse correlation | specular chroma |" in md and "| ground truth |" in md
 
 
 def test_predict_png_and_exr(run_dir, tmp_path):

@@ -32,6 +32,19 @@ def photo(rng, h, w) -> np.ndarray:
     return rng.uniform(0.05, 0.6, (h, w, 3)).astype(np.float32)
 
 
+def written_spec_stats(d) -> dict[str, float]:
+    """:func:`train.spec_stats.spec_stats` of the diffuse and specular maps predict wrote into ``d`` (linear EXRs)."""
+    import torch
+
+    from train.brdf import DIFFUSE, SPECULAR
+    from train.spec_stats import spec_stats
+
+    maps = torch.zeros(1, 10, *read_exr(d / "diffuse.exr").shape[:2])
+    for name, sl in (("diffuse", DIFFUSE), ("specular", SPECULAR)):
+        maps[0, sl] = torch.from_numpy(read_exr(d / f"{name}.exr")).permute(2, 0, 1)
+    return {k: float(v[0]) for k, v in spec_stats(maps).items()}
+
+
 @pytest.mark.parametrize("size", [128, 256, 512])
 def test_sizes_from_one_512_photo(run_dir, tmp_path, rng, size, caplog):
     write_exr(tmp_path / "p.exr", photo(rng, 512, 512))
@@ -88,6 +101,9 @@ def test_folder_batched_with_a_broken_photo(run_dir, tmp_path, rng):
     assert sorted(p.name for p in out.iterdir()) == ["a", "b", "c"]
     for name in "abc":
         assert all((out / name / f"{m}.exr").is_file() for m in MAPS)
+        # each photo's specular-copy statistics (#39) are those of its own written maps, not of its batch's first
+        assert json.loads((out / name / "prediction.json").read_text())["specular_copy"] == pytest.approx(
+            written_spec_stats(out / name), abs=2e-6)
     # batching does not change a photo's maps: c alone equals c in the batch of the folder
     code, _, err = run("predict", src / "c.exr", "--checkpoint", run_dir, "--out", tmp_path / "c1", "--size", 64)
     assert code == 0, err

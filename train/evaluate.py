@@ -37,6 +37,7 @@ from .data import PairDataset, open_source, split_for
 from .dvc_metrics import COLUMNS
 from .eval_chart import groups_of, plot_eval
 from .render import flash_render
+from .spec_stats import STATS, quartiles, spec_stats
 
 #: flash offsets of the re-rendering metric: the capture position and four moved lights.
 EVAL_LIGHTS = ((0.0, 0.0), (0.5, 0.0), (-0.4, 0.4), (0.3, -0.6), (-0.7, -0.7))
@@ -47,6 +48,8 @@ MIN_CLUSTERS = 5
 #: the key of :func:`evaluate`'s per-view model errors, which run_eval writes to per_view.csv, not eval.json.
 PER_VIEW = "per_view"
 PER_VIEW_FILE = "per_view.csv"
+#: the key of :func:`evaluate`'s specular-copy statistics (train/spec_stats.py) of the model's maps and the truth's.
+SPEC_KEY = "specular_copy"
 
 #: suite name -> fn(cfg, store) -> {group name: (source, indices)}.
 SUITES: dict[str, Callable] = {}
@@ -212,7 +215,9 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
 
     Returns:
         {"model"|"input_as_diffuse"|"dataset_mean": {column: mean RMSE}, "samples": n,
-        "paired": {baseline: {column: :func:`paired` statistics of model against that baseline}}}.
+        "paired": {baseline: {column: :func:`paired` statistics of model against that baseline}},
+        :data:`SPEC_KEY`: {"model"|"ground_truth": {statistic: :func:`train.spec_stats.quartiles` over the views}}}
+        (the specular-diffuse correlation and the specular chroma of the predicted and the true maps, side by side).
     """
     ds = PairDataset(src, indices, crop, seed, train=False)
     device = torch.device(device)
@@ -221,22 +226,29 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
     methods = {"model": lambda img: model(img), "input_as_diffuse": lambda img: input_as_diffuse(img, means),
                "dataset_mean": lambda img: dataset_mean(img, means)}
     acc: dict[str, dict[str, list]] = {m: {c: [] for c in COLUMNS} for m in methods}
+    spec: dict[str, dict[str, list]] = {m: {s: [] for s in STATS} for m in ("model", "ground_truth")}
     if model is not None:
         model.eval()
     else:
         methods.pop("model")
         acc.pop("model")
+        spec.pop("model")
     with progress(len(ds), desc, unit="sample", lines=True) as bar:
         for lo in range(0, len(ds), batch_size):
             items = [ds[k] for k in range(lo, min(lo + batch_size, len(ds)))]
             img = torch.stack([x[0] for x in items]).to(device)
             gt = torch.stack([x[1] for x in items]).to(device)
             for name, fn in methods.items():
-                for c, v in metrics(fn(img), gt).items():
+                pred = fn(img)
+                for c, v in metrics(pred, gt).items():
                     acc[name][c].extend(v.tolist())
+                if name in spec:
+                    _extend(spec[name], spec_stats(pred))
+            _extend(spec["ground_truth"], spec_stats(gt))
             bar.update(len(items))
     res = {m: {c: float(np.mean(v)) for c, v in cols.items()} for m, cols in acc.items()}
     res["samples"] = len(ds)
+    res[SPEC_KEY] = {m: {s: quartiles(v) for s, v in d.items()} for m, d in spec.items()}
     if "model" in acc:
         cl = cluster_ids(src, indices)
         # per-view errors for run_eval's per_view.csv (effects between runs bootstrap over SVBRDFs: ablation.py)
@@ -244,6 +256,26 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
         res["paired"] = {b: {c: paired(acc["model"][c], acc[b][c], cl, seed) for c in COLUMNS}
                          for b in acc if b != "model"}
     return res
+
+
+def _extend(lists: dict[str, list], values: dict[str, np.ndarray]) -> None:
+    for k, v in values.items():
+        lists[k].extend(v.tolist())
+
+
+def spec_markdown(groups: dict[str, dict], suite: str) -> list[str]:
+    """eval.md's lines of the specular-copy statistics: per group, the model's maps beside the ground truth's."""
+    if not any(SPEC_KEY in r for r in groups.values()):
+        return []
+    lines = ["", "Specular copying of the photo (train/spec_stats.py), median [quartiles] over views: the correlation "
+             "of specular with diffuse luminance (Rec. 709, linear) and the specular chroma (per pixel RGB std / "
+             "mean). The ground truth's give the range of the evaluated materials.", "",
+             "| group | maps | specular-diffuse correlation | specular chroma |", "|---|---|---|---|"]
+    for g, r in groups.items():
+        for m, st in r.get(SPEC_KEY, {}).items():
+            cells = [f"{q['median']:.3f} [{q['q25']:.3f}, {q['q75']:.3f}]" for q in (st[s] for s in STATS)]
+            lines.append(f"| {g or suite} | {m.replace('_', ' ')} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def markdown(res: dict) -> str:
@@ -263,6 +295,7 @@ def markdown(res: dict) -> str:
         lines.append("")
         lines.append(f"Views evaluated: {v['evaluated']} ({v['which']}) of the {v['store_views']} in {v['store']}. "
                      f"Why: {v['why']}")
+    lines += spec_markdown(groups, res.get("suite", ""))
     for g, r in groups.items():
         if "paired" not in r:
             continue

@@ -11,8 +11,9 @@ of the original code kept hitting). EXR values above 1 are clipped: the network 
 Outputs per photo, in its own folder: ``{normal,diffuse,roughness,specular}.png`` (normal encoded (n+1)/2,
 the others sRGB-encoded for viewing), the same maps as linear ``.exr`` (normal as the raw unit vector),
 ``input.png`` (what the network saw), ``rerender.png`` (the maps under a moved flash) and ``prediction.json``
-(checkpoint, config, input space, size, svgen version, and ``input_check``: simple statistics of the input and a
-warning flag when the photo is far from the training distribution, :mod:`train.photo_check`). Photos that cannot be
+(checkpoint, config, input space, size, svgen version, ``input_check``: simple statistics of the input and a
+warning flag when the photo is far from the training distribution, :mod:`train.photo_check`, and ``specular_copy``:
+the predicted specular's correlation with the diffuse and its chroma, :mod:`train.spec_stats`). Photos that cannot be
 read are listed at the end (one line, non-zero exit) after every readable one has been written. Without a checkpoint
 the model shipped in the package runs (:mod:`train.bundled_model`).
 """
@@ -37,6 +38,7 @@ from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from . import bundled_model, photo_check
 from .checkpoint import load_model
 from .render import flash_render
+from .spec_stats import spec_stats
 
 log = get_logger(__name__)
 
@@ -253,6 +255,7 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path | None, o
         maps = model(x).float()
         rer = flash_render(maps, torch.tensor(MOVED_LIGHT))
         maps, x, rer = maps.cpu(), x.cpu(), rer.cpu()
+        copy_stats = spec_stats(maps)  # does the specular repeat the photo? (no ground truth needed)
         for k, (photo, d, hw, side, _) in enumerate(batch):
             checked = photo_check.check(x[k])
             if checked["warnings"]:
@@ -267,7 +270,8 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path | None, o
                 # > 1: the centre square was enlarged to --size (a warning said so)
                 "upscale": round(size / side, 4),
                 "input_space": input_space_of(photo, input_space), "input_space_option": input_space,
-                "input_check": checked, **meta},
+                "input_check": checked,
+                "specular_copy": {s: round(float(v[k]), 6) for s, v in copy_stats.items()}, **meta},
                 indent=2) + "\n")
             written.append(d)
             bar.update(1)
