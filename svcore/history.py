@@ -24,6 +24,7 @@ record different lines. Through svgen's Python API (no click command runs) the l
 from __future__ import annotations
 
 import re
+import shlex
 from typing import Callable
 
 import click
@@ -52,8 +53,6 @@ def history_line(recorded: Callable[[str], str]) -> str:
     Returns:
         One shell-quoted line, or :data:`API` when no click command is running.
     """
-    import shlex
-
     ctx = click.get_current_context(silent=True)
     if ctx is None:
         return API
@@ -80,8 +79,9 @@ def _words(p: click.Parameter, value, recorded: Callable[[str], str]) -> list[st
 
     if isinstance(p, click.Argument):
         return [text(v) for v in (value if isinstance(value, tuple) else (value,))]
-    if p.is_flag and p.is_bool_flag:
-        return [p.opts[0]] if value else p.secondary_opts[:1]
+    if p.is_flag:  # --on/--off pairs name the off side; a flag with a flag_value is on when it holds that value
+        on = value if p.is_bool_flag else value == p.flag_value
+        return [p.opts[0]] if on else p.secondary_opts[:1]
     values = value if p.multiple else (value,)
     return [w for v in values for w in (p.opts[0], *(text(x) for x in (v if p.nargs > 1 else (v,))))]
 
