@@ -222,7 +222,7 @@ def main(argv=None) -> None:
     res["effect_real_data"] = pooled_effect(pairs)
     res["net_arms"] = {}
     ctl = work / "runs" / "control"
-    for name in a.net_arms:
+    for name in a.net_arm:
         run = work / "runs" / name
         fit = json.loads((run / "metrics.json").read_text())
         r = {"model": yaml.safe_load((run / "config.yaml").read_text())["train"]["model"], "fit_wall_s": fit.get("train_wall_s"),
