@@ -132,4 +132,4 @@ def test_the_first_hour_runs_as_written(tmp_path):
     r = subprocess.run([sys.executable, "-W", "ignore", "-c", python], cwd=tmp_path, env=env, capture_output=True,
                        text=True)
     assert r.returncode == 0, r.stderr[-2000:]
-    assert "svgen render data/variants.zarr data/renders.zarr" in r.stdout and (tmp_path / "runs/renders.nc").is_file()
+    assert "svgen render variants.zarr OUT" in r.stdout and (tmp_path / "runs/renders.nc").is_file()

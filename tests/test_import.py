@@ -248,6 +248,8 @@ def test_same_bytes_for_any_worker_count_and_resume(tmp_path, rng, monkeypatch):
             raise KeyboardInterrupt
         return real(c, threads, **kw)
 
+    # the store names the code of its task's module (storage.local, code_of): the stand-in is the same stage's task
+    dies_after_first.__module__ = real.__module__
     monkeypatch.setattr(job, "_chunk_task", dies_after_first)
     with pytest.raises(KeyboardInterrupt):
         imp(tmp_path / "src", tmp_path / "k.zarr", size=16, chunk=2)
