@@ -41,10 +41,48 @@ GiB = float(1 << 30)
 
 
 def available_memory() -> int:
-    """Bytes of memory available to new allocations (psutil, a dependency of dask.distributed)."""
+    """Bytes of memory available to new allocations: the machine's available memory (psutil, a dependency of
+    dask.distributed), or less where this process's cgroup (a container's limit) or its address-space limit
+    (``ulimit -v``) leaves less."""
     import psutil
 
-    return int(psutil.virtual_memory().available)
+    return int(min(psutil.virtual_memory().available, _cgroup_room(), _address_space_room()))
+
+
+#: a cgroup memory limit at or above this is "no limit" (cgroup v1 writes 2^63 rounded down to a page).
+_NO_LIMIT = 1 << 60
+
+
+def _cgroup_room(root: Path = Path("/sys/fs/cgroup")) -> float:
+    """Bytes left under this container's cgroup memory limit (v2 ``memory.max``, v1 ``memory.limit_in_bytes``)
+    less its usage, counting reclaimable inactive file cache as free; infinite without a limit."""
+    for limit_f, usage_f, stat_f, inactive in (("memory.max", "memory.current", "memory.stat", "inactive_file"),
+                                               ("memory/memory.limit_in_bytes", "memory/memory.usage_in_bytes",
+                                                "memory/memory.stat", "total_inactive_file")):
+        try:
+            text = (root / limit_f).read_text().strip()
+            if text == "max" or int(text) >= _NO_LIMIT:
+                continue
+            usage = int((root / usage_f).read_text())
+            stat = dict(line.split() for line in (root / stat_f).read_text().splitlines() if line.count(" ") == 1)
+            return max(0, int(text) - usage + int(stat.get(inactive, 0)))
+        except (OSError, ValueError):
+            continue
+    return math.inf
+
+
+def _address_space_room() -> float:
+    """Bytes this process may still map under its address-space limit (RLIMIT_AS); infinite without one."""
+    import resource
+
+    soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if soft == resource.RLIM_INFINITY:
+        return math.inf
+    try:
+        vm = next(int(line.split()[1]) * 1024 for line in open("/proc/self/status") if line.startswith("VmSize:"))
+    except (OSError, StopIteration, ValueError):
+        return soft
+    return max(0, soft - vm)
 
 
 def free_disk(path: str | os.PathLike) -> int:

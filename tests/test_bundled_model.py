@@ -20,6 +20,7 @@ from svcore.config import build
 from train import bundle, bundled_model, checkpoint
 from train.config import preset
 from train.data import PairDataset, open_source, split_for
+from train.evaluate import evaluate, means_from_record
 from train.fit import Trainer
 
 from test_train_cli import run  # noqa: E402  (one svtrain-in-process helper)
@@ -97,12 +98,26 @@ def test_predict_without_checkpoint_uses_the_bundled_model(tmp_path):
         assert (tmp_path / "m" / f"{m}.exr").read_bytes() == (tmp_path / "n" / f"{m}.exr").read_bytes()
 
 
-def test_eval_accepts_the_bundled_model_by_name(renders, tmp_path):
-    code, out, err = run("eval", "--checkpoint", "bundled", "--suite", "all", "--store", renders,
-                         "--train-store", renders, "--out", tmp_path)
+def test_the_bundled_model_evaluates_on_a_store_without_its_training_store(renders, tmp_path, monkeypatch):
+    """No user has the bundled model's training store: the model carries the training means its baselines use
+    (bundled.json), so `svtrain eval --checkpoint bundled --store S` works in an empty folder, and the baselines'
+    numbers are those of the recorded means."""
+    work = tmp_path / "empty"
+    work.mkdir()
+    shutil.copytree(renders, work / "s.zarr")
+    monkeypatch.chdir(work)  # no data/renders.zarr here, nor anywhere relative to the package's model
+    code, out, err = run("eval", "--checkpoint", "bundled", "--store", "s.zarr", "--out", "e")
     assert code == 0, err
-    res = json.loads((tmp_path / "eval.json").read_text())
-    assert res["samples"] == 8 and "| model |" in out
+    res = json.loads((work / "e" / "eval.json").read_text())
+    assert res["samples"] == 8 and res["suite"] == "all" and "| model |" in out
+    recorded = bundled_model.manifest()["train_means"]
+    assert res["train_means"] == {"from": "the bundled model's bundled.json", "maps": recorded}
+    cfg = checkpoint.load("bundled")["config"]
+    src = open_source(preset("compact").data.model_copy(update={"store": str(work / "s.zarr")}))
+    base = evaluate(None, src, np.arange(len(src)), cfg["data"]["crop"], means_from_record(recorded),
+                    cfg["optim"]["batch_size"], cfg["optim"]["seed"])
+    for b in ("input_as_diffuse", "dataset_mean"):
+        assert res[b] == base[b], b
 
 
 def test_fine_tuning_starts_at_the_bundled_weights():
@@ -202,7 +217,11 @@ def test_bundle_writes_a_loadable_model_with_its_card(tiny_run, tmp_path):
     assert net_state["step"] == 2 and "optim" not in net_state
     card = (into / "MODEL_CARD.md").read_text()
     assert "Placeholder" in card and "### Held-out materials" in card and "95 % interval" in card
-    assert json.loads((into / "bundled.json").read_text())["placeholder"] is True
+    manifest = json.loads((into / "bundled.json").read_text())
+    assert manifest["placeholder"] is True
+    # the baselines' means travel with the model: those the run recorded at fit time
+    recorded = json.loads((run_dir / "provenance.json").read_text())["train_means"]
+    assert manifest["train_means"] == recorded == net_state["provenance"]["train_means"]
     assert "Not evaluated for this card: no reference store" in card
     assert "store_resolved" not in json.dumps(net_state["provenance"])  # no resolved path of this machine
     code, _, err = run("bundle", tmp_path, "--into", into)  # not a run: one line

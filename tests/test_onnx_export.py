@@ -96,6 +96,24 @@ def test_each_network_option_exports_and_matches_torch(option, tmp_path):
     assert_onnx_matches_torch(d, tmp_path / "m.onnx", tmp_path)
 
 
+def test_onnxruntime_gives_the_maps_svtrain_predict_writes(run_dir, exported, tmp_path):
+    """The exported model's decoded maps are those `svtrain predict` writes for the same photo (its linear EXRs,
+    decoded by the network and predict, not by the export's DecodedMaps): each map in its meaning and units."""
+    from svcore.image_io import read_exr
+
+    path = tmp_path / "photo.jpg"
+    Image.fromarray(flash_photo(480, 640)).save(path, quality=95)
+    code, _, err = run("predict", path, "--checkpoint", run_dir, "--out", tmp_path / "maps", "--size", 256)
+    assert code == 0, err
+    sess = ort.InferenceSession(str(exported), providers=["CPUExecutionProvider"])
+    got = dict(zip(OUTPUTS, sess.run(None, {"image": to_network_input(read_photo(path), 256).numpy()})))
+    for name in OUTPUTS:
+        written = read_exr(tmp_path / "maps" / f"{name}.exr")  # (256, 256, 3): roughness in all three channels
+        onnx_map = got[name][0].transpose(1, 2, 0)
+        np.testing.assert_allclose(np.broadcast_to(onnx_map, written.shape), written, atol=ATOL, rtol=0,
+                                   err_msg=name)
+
+
 def test_the_model_records_how_to_call_it(exported, run_dir):
     m = onnx.load(str(exported))
     assert any(o.domain in ("", "ai.onnx") and o.version == OPSET for o in m.opset_import)

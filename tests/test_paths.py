@@ -2,6 +2,7 @@
 other spelling, no command writes into or modifies its input, and a run is usable from any working directory."""
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -12,6 +13,7 @@ import pytest
 from conftest import tree_digest
 from storage.store import partial_path
 from test_bad_input import call
+from train import checkpoint
 from train.cli import svtrain
 
 from test_store_integrity import SMALL_FIT  # noqa: E402
@@ -98,12 +100,32 @@ def test_eval_finds_the_training_store_from_another_directory(project, tmp_path,
     code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", project / "runs" / "a", "--store",
                                           project / "data" / "r.zarr", "--out", "e1"])
     assert code == 0, err
-    # the run moved without its store: one line saying what eval needs, and --train-store gives it
+    # the run moved without its store: it carries its baselines' training means, so a store evaluates as before
     shutil.copytree(project / "runs" / "a", elsewhere / "moved")
-    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--store", project / "data" / "r.zarr",
-                                          "--out", "e2"])
-    assert code == 2 and "eval needs the run's training store" in err and "--train-store" in err, err
-    assert err.count("\n") == 1
-    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--store", project / "data" / "r.zarr",
-                                          "--train-store", project / "data" / "r.zarr", "--out", "e3"])
+    store = project / "data" / "r.zarr"
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--store", store, "--out", "e2"])
     assert code == 0, err
+    e1, e2 = (json.loads((elsewhere / e / "eval.json").read_text()) for e in ("e1", "e2"))
+    assert e2["train_means"]["from"] == "recorded with the model at fit time"
+    assert {k: e2[k] for k in ("model", "input_as_diffuse", "dataset_mean", "train_means")} == \
+        {k: e1[k] for k in ("model", "input_as_diffuse", "dataset_mean", "train_means")}
+    # its held-out split still needs the training store: one line saying why, and --train-store gives it
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--out", "e3"])
+    assert code == 2 and "eval needs the run's training store (eval without --store evaluates its held-out " \
+                         "split)" in err and "--train-store" in err, err
+    assert err.count("\n") == 1
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--train-store", store, "--out", "e4"])
+    assert code == 0, err
+    # a run from before fit recorded the means: one line; --train-store gives them, and they are the recorded ones
+    state = checkpoint.load(elsewhere / "moved" / "model.pt")
+    del state["provenance"]["train_means"]
+    checkpoint.save(elsewhere / "moved" / "model.pt", state)
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--store", store, "--out", "e5"])
+    assert code == 2 and "records no training means" in err and "--train-store" in err, err
+    assert err.count("\n") == 1
+    code, err = call(svtrain, "svtrain", ["eval", "--checkpoint", "moved", "--store", store, "--train-store", store,
+                                          "--out", "e6"])
+    assert code == 0, err
+    e6 = json.loads((elsewhere / "e6" / "eval.json").read_text())
+    assert e6["train_means"] == {"from": "computed from --train-store", "maps": e2["train_means"]["maps"]}
+    assert e6["dataset_mean"] == e2["dataset_mean"] and e6["input_as_diffuse"] == e2["input_as_diffuse"]

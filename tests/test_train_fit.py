@@ -202,3 +202,43 @@ def test_a_key_added_since_a_checkpoint_counts_as_its_default(src, tmp_path):
     other = resolve("compact", None, {**TINY, "optim.iterations": 6, "optim.normal_late_weight": 10.0})
     with pytest.raises(ConfigError, match=r"optim.normal_late_weight 30.0 -> 10.0"):
         fit(other, tmp_path / "b", source=src)
+
+
+@pytest.fixture(scope="module")
+def two_renders(tmp_path_factory):
+    """Two renders stores of the same kind and size from the same variants, rendered with another render seed: the
+    same SVBRDFs under other views, so other data with the same kind and sample count (only the config hash
+    differs)."""
+    from pipeline.config import RenderConfig, SampleConfig
+    from pipeline.render.stage import run_render
+    from pipeline.sample import run_sample
+    from svcore.config import build
+
+    d = tmp_path_factory.mktemp("renders")
+    run_sample(d / "v.zarr", build(SampleConfig, "tiny", presets=("paint/glossy_red", "metal/aluminium_plate"),
+                                   per_preset=2, size=64), workers=0)
+    for seed in (0, 1):
+        run_render(d / "v.zarr", d / f"r{seed}.zarr", build(RenderConfig, "tiny", res=32, views=2, chunk=2,
+                                                            seed=seed), workers=0)
+    return d / "r0.zarr", d / "r1.zarr"
+
+
+def test_a_resume_on_a_store_rendered_with_another_config_is_refused(two_renders, tmp_path):
+    """The checkpoint records which store it trained on by kind, config hash and size: a store of the same kind
+    and size rendered with another config is other data, so a plain resume refuses it, naming both, and
+    --resume-if-unchanged starts over."""
+    import zarr
+
+    a, b = two_renders
+    meta = [dict(zarr.open_group(str(s), mode="r").attrs)["svgen"] for s in (a, b)]
+    assert (meta[0]["kind"], meta[0]["n"]) == (meta[1]["kind"], meta[1]["n"])
+    assert meta[0]["config_hash"] != meta[1]["config_hash"]
+    over = {**TINY, "optim.iterations": 4, "optim.batch_size": 2, "data.holdout": 0.5}
+    fit(resolve("compact", None, {**over, "data.store": str(a)}), tmp_path / "run", stop_after=2,
+        show_progress=False)
+    cfg_b = resolve("compact", None, {**over, "data.store": str(b)})
+    with pytest.raises(ConfigError, match=rf"config hash {meta[0]['config_hash']}\) -> .*config hash "
+                                          rf"{meta[1]['config_hash']}\).*--no-resume"):
+        fit(cfg_b, tmp_path / "run", show_progress=False)
+    assert fit(cfg_b, tmp_path / "run", resume="if-unchanged", show_progress=False)["resumed_from"] is None
+

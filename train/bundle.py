@@ -19,7 +19,7 @@ from svcore.errors import SvgenError
 from svcore.log import get_logger
 
 from . import bundled_model, checkpoint, photo_check
-from .evaluate import COLUMNS, markdown, run_eval
+from .evaluate import COLUMNS, MEANS_KEY, markdown, run_eval
 
 log = get_logger(__name__)
 
@@ -254,7 +254,9 @@ def bundle(run_dir: str | Path, stress_store: str | None = None, into: str | Pat
             "steps": state["step"], "placeholder": placeholder,
             "data": f"the default store ({data['svbrdfs']} SVBRDFs x {data['render'].get('views')} views)",
             "svgen_version": state["provenance"].get("versions", {}).get("svgen"),
-            "heldout_rerender_rmse": round(float(heldout["model"]["rerender"]), 5)}
+            "heldout_rerender_rmse": round(float(heldout["model"]["rerender"]), 5),
+            # what the baselines of `svtrain eval --checkpoint bundled` use: no user has the training store
+            MEANS_KEY: heldout[MEANS_KEY]["maps"]}
     if reference is not None:
         info["reference_normal_rmse"] = round(float(reference["model"]["normal"]), 5)
     (out / bundled_model.MANIFEST_FILE).write_text(json.dumps(info, indent=2) + "\n")

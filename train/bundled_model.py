@@ -5,7 +5,9 @@
 - ``model.pt``: a weights-only svtrain checkpoint (:mod:`train.checkpoint` format: config, weights, step,
   provenance), loadable with ``torch.load(weights_only=True)``;
 - ``bundled.json``: its manifest: the file's SHA-256 and size (a damaged file is named, never loaded half-way), the
-  run it came from and whether it is a placeholder;
+  run it came from, whether it is a placeholder, and the training split's map means that ``svtrain eval``'s
+  baselines use (``train_means``; a model bundled since ``svtrain fit`` records them carries them in its
+  provenance too), so that the model evaluates on any store without its training store;
 - ``MODEL_CARD.md``: what the model is (data, training, licence, evaluation tables, known failure cases), written
   by ``svtrain bundle`` (:mod:`train.bundle`).
 

@@ -93,7 +93,11 @@ def load(path: str | Path) -> dict[str, Any]:
 
 def load_model(path: str | Path) -> tuple[SVBRDFNet, Config]:
     """The trained network (in eval mode) and its config from a checkpoint or run directory."""
-    state = load(path)
+    return model_from_state(load(path))
+
+
+def model_from_state(state: dict[str, Any]) -> tuple[SVBRDFNet, Config]:
+    """The network (in eval mode) and its config from a loaded checkpoint (:func:`load`)."""
     cfg = from_dict(state["config"])
     model = SVBRDFNet(cfg.model)
     model.load_state_dict(state["model"])

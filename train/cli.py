@@ -85,7 +85,9 @@ svtrain.add_command(fit)
 @click.option("--limit", type=click.IntRange(min=1), default=None, help="Evaluate at most this many samples.")
 @click.option("--out", default=None, help="Output directory (default: the run directory).")
 @click.option("--train-store", default=None,
-              help="The run's training store, if it moved (default: found through the run's run.json).")
+              help="The run's training store, needed only for its held-out split (no --store) when it moved, or "
+                   "for a run from before `svtrain fit` recorded the baselines' means (default: found through the "
+                   "run's run.json); its means then replace recorded ones.")
 @click.option("--device", default="cpu", show_default=True, help="auto, cpu, cuda, cuda:N or mps.")
 @storage_option
 def eval_(ckpt, suite, store, limit, out, train_store, device):

@@ -190,6 +190,32 @@ def train_means(src, indices, crop: int, seed: int, limit: int = 64) -> torch.Te
     return acc / len(ds)
 
 
+#: the key under which a run's provenance (provenance.json, model.pt, checkpoint.pt), the bundled manifest and
+#: eval.json record the baselines' training means.
+MEANS_KEY = "train_means"
+
+
+def means_record(means: torch.Tensor) -> dict[str, list[float]]:
+    """The (10,) packed training means as recorded: {map: its channels' means} (:data:`MAPS` order)."""
+    return {name: [float(v) for v in means[sl]] for name, sl in MAPS.items()}
+
+
+def means_from_record(record: dict[str, list[float]]) -> torch.Tensor:
+    """(10,) packed training means from :func:`means_record`'s form."""
+    means = torch.zeros(10)
+    for name, sl in MAPS.items():
+        means[sl] = torch.tensor([float(v) for v in record[name]])
+    return means
+
+
+def fit_means(src, cfg: Config) -> dict[str, list[float]]:
+    """The baselines' training means of a run, as ``svtrain fit`` records them (:func:`train_means` over the
+    training split of ``src``, centre crops at ``data.crop``, seeded by ``optim.seed``): what ``svtrain eval`` would
+    compute from the training store, so that evaluating the run needs no training store."""
+    train_idx, _ = split_for(src, cfg.data)
+    return means_record(train_means(src, train_idx, cfg.data.crop, cfg.optim.seed))
+
+
 def input_as_diffuse(image: torch.Tensor, means: torch.Tensor) -> torch.Tensor:
     """Baseline maps (B, 10, H, W) from images (B, 3, H, W)."""
     b, _, h, w = image.shape
@@ -332,14 +358,24 @@ def store_identity(src) -> tuple | None:
     return None if not meta else (meta.get("kind"), meta.get("config_hash"), meta.get("n"))
 
 
-def choose_suite(suite: str | None, store: str | None, store_src, train_src) -> tuple[str, str]:
+def train_identity(provenance: dict, train_src=None) -> tuple | None:
+    """:func:`store_identity` of a run's training store from what the run recorded (its provenance's ``data``),
+    so that telling the training store from another one needs no copy of it; ``train_src`` when nothing is
+    recorded; None for the synthetic source."""
+    data = provenance.get("data")
+    if data is None:
+        return store_identity(train_src) if train_src is not None else None
+    return None if "synthetic" in data else (data.get("kind"), data.get("config_hash"), data.get("n"))
+
+
+def choose_suite(suite: str | None, store: str | None, store_src, train_ident: tuple | None) -> tuple[str, str]:
     """The suite to run and why, in words for the report.
 
     Without ``suite``: ``heldout`` on the checkpoint's training store (its other views were trained on), ``all`` on
     any other store (training saw none of it: evaluating only its held-out split would drop most of it).
+    ``train_ident``: the training store's :func:`store_identity` (:func:`train_identity`).
     """
-    foreign = store is not None and (store_identity(train_src) is None
-                                     or store_identity(store_src) != store_identity(train_src))
+    foreign = store is not None and (train_ident is None or store_identity(store_src) != train_ident)
     if suite is not None:
         return suite, f"--suite {suite} was asked for" + (
             " (the store is not the checkpoint's training store)" if foreign and suite == "heldout" else "")
@@ -350,36 +386,67 @@ def choose_suite(suite: str | None, store: str | None, store_src, train_src) -> 
                        "is evaluated")
 
 
+def recorded_means(checkpoint_path, provenance: dict) -> tuple[dict | None, str]:
+    """The baselines' training means a model carries (:func:`means_record` form) and where they were found: its
+    provenance (``svtrain fit`` records them), else, for the bundled model, its manifest (a model bundled before
+    fit recorded them); None for older runs."""
+    from . import bundled_model
+
+    if provenance.get(MEANS_KEY):
+        return provenance[MEANS_KEY], "recorded with the model at fit time"
+    if bundled_model.is_bundled(checkpoint_path):
+        return bundled_model.manifest().get(MEANS_KEY), f"the bundled model's {bundled_model.MANIFEST_FILE}"
+    return None, ""
+
+
 def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str | None = None,
              store: str | None = None, limit: int | None = None, train_store: str | None = None,
              device: str = "cpu") -> dict:
     """Evaluate a checkpoint on a suite on ``device`` (train/device.py strings); writes eval.json, eval.md and
     eval.png (bars) into ``out_dir``.
 
-    The training store (baseline means, and the held-out split without ``store``) is found from any working
-    directory through the run's ``run.json`` (:mod:`train.runinfo`), or given as ``train_store``. ``suite`` None
-    picks one (:func:`choose_suite`); the result's ``views`` says which views were evaluated and why.
+    The baselines' means are those the model carries (:func:`recorded_means`), so a model evaluates on any
+    ``store`` from any directory without its training store. The training store is needed only for its held-out
+    split (no ``store``), or for the means of a run that records none; it is found through the run's ``run.json``
+    (:mod:`train.runinfo`), or given as ``train_store``, whose means then override recorded ones. ``suite`` None
+    picks one (:func:`choose_suite`); the result's ``views`` says which views were evaluated and why, its
+    :data:`MEANS_KEY` which means the baselines used and where they came from.
 
     Returns:
         for one-group suites: {"model"|baseline: {column: RMSE}, "samples", "suite", "beats_baselines"};
         for several groups (stress): {"suite", "groups": {name: that dict}}.
+
+    Raises:
+        StoreError: the training store is needed and not found (one line saying why it is needed).
     """
-    from .checkpoint import load_model
+    from .checkpoint import load, model_from_state
     from .device import resolve_device
 
     dev = resolve_device(device)
     if suite is not None and suite not in SUITES:
         raise ConfigError(f"unknown eval suite {suite!r}; known: {', '.join(sorted(SUITES))}")
-    model, cfg = load_model(checkpoint_path)
-    cfg = cfg.model_copy(update={"data": cfg.data.model_copy(
-        update={"store": runinfo.train_store(checkpoint_path, cfg.data.store, train_store)})})
-    refuse_inside(out_dir, [s for s in (store, cfg.data.store) if s])
-    train_src = open_source(cfg.data)  # baseline means: the training split of the training store
+    state = load(checkpoint_path)
+    model, cfg = model_from_state(state)
+    prov = state.get("provenance") or {}
+    recorded, means_from = (None, "") if train_store else recorded_means(checkpoint_path, prov)
+    train_src, inputs = None, [store] if store else []
+    if store is None or recorded is None:  # the training source itself is needed
+        need = ("eval without --store evaluates its held-out split" if store is None else
+                "the run records no training means for the baselines (trained before svtrain fit recorded them)")
+        cfg = cfg.model_copy(update={"data": cfg.data.model_copy(
+            update={"store": runinfo.train_store(checkpoint_path, cfg.data.store, train_store, need)})})
+        train_src = open_source(cfg.data)
+        inputs += [cfg.data.store] if cfg.data.store else []
+    refuse_inside(out_dir, inputs)
     store_src = open_source(cfg.data.model_copy(update={"store": store})) if store else train_src
-    suite, why = choose_suite(suite, store, store_src, train_src)
+    suite, why = choose_suite(suite, store, store_src, train_identity(prov, train_src))
     groups = SUITES[suite](cfg, store)
-    train_idx, _ = split_for(train_src, cfg.data)
-    means = train_means(train_src, train_idx, cfg.data.crop, cfg.optim.seed)
+    if recorded is not None:
+        means = means_from_record(recorded)
+    else:
+        train_idx, _ = split_for(train_src, cfg.data)  # baseline means: the training split of the training store
+        means = train_means(train_src, train_idx, cfg.data.crop, cfg.optim.seed)
+        means_from = "computed from --train-store" if train_store else "computed from the training store"
     out_groups, per_view = {}, {}
     for name, (src, idx) in groups.items():
         if limit:
@@ -397,6 +464,7 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str | None
                     "evaluated": sum(r["samples"] for r in out_groups.values()), "store_views": len(store_src),
                     "store": "the training store" if store is None else Path(str(store).rstrip("/")).name,
                     "why": why + (f"; at most {limit} views per group (--limit)" if limit else "")}
+    res[MEANS_KEY] = {"from": means_from, "maps": means_record(means)}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     write_per_view(out / PER_VIEW_FILE, per_view)

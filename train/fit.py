@@ -11,8 +11,9 @@ checkpoints, progress and outputs around it, and the benchmarks iterate the same
 
 Outputs in the run directory: ``config.yaml`` (the resolved config as a params file with a ``train:`` section),
 ``checkpoint.pt`` (full state), ``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
-versions), ``metrics.json`` (everything), ``fit_metrics.json`` (the few numbers `dvc metrics` shows), ``loss.csv``,
-``loss.png``.
+versions, and the training split's map means that ``svtrain eval``'s baselines use, so that evaluating a model needs
+no copy of its training store), ``metrics.json`` (everything), ``fit_metrics.json`` (the few numbers `dvc metrics`
+shows), ``loss.csv``, ``loss.png``.
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ from .data import PairDataset, make_loader, open_source, split_for
 from .device import Placement, placement
 from .distributed import (PeerLost, World, broadcast, check_world, gather, is_collective_failure,
                           last_checkpoint_note, mean_over_ranks, pause_hook, process_group, world_from_env)
+from .evaluate import MEANS_KEY, fit_means
 from .heldout import HeldoutProbe, TrainClock
 from .loss import LossConfigs, make_loss, sample_configs
 from .net import SVBRDFNet, count_parameters
@@ -410,7 +412,8 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
     trainer = Trainer(cfg, place, world)
     start, losses = 0, []
     state = None
-    data = provenance(cfg, src)["data"]
+    prov = provenance(cfg, src)
+    data = prov["data"]
     key = runinfo.resume_key(cfg, data)
     if resume and world.main and ckpt_path.exists():
         state = checkpoint.load(ckpt_path)
@@ -429,16 +432,18 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
             log.info("resuming %s at step %d", out, start)
     resumed_from = start if state is not None else None
     if world.main:  # the checkpoint is continued or replaced: only now do the run's records change
+        # the baselines' training means travel with the model: `svtrain eval` then needs no training store
+        prov[MEANS_KEY] = fit_means(src, cfg)
         runinfo.record(out, cfg.data.store)
         (out / "config.yaml").write_text(params_text(cfg))  # a params file: `svtrain fit --params` reruns it
-        (out / "provenance.json").write_text(json.dumps(provenance(cfg, src), indent=2) + "\n")
+        (out / "provenance.json").write_text(json.dumps(prov, indent=2) + "\n")
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment,
                      centre=cfg.data.crop_at == "centre")
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
 
     def save(step: int) -> None:
         st = trainer.state(step, losses)  # every rank (gathers the ranks' RNG states)
-        st["resume_key"], st["data"] = key, data
+        st["resume_key"], st["data"], st["provenance"] = key, data, prov
         st["heldout"], st["train_clock"] = heldout_rows, clock.totals()  # a resumed run continues from them
         if world.main:
             checkpoint.save(ckpt_path, st)
@@ -505,5 +510,5 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
         return {"step": step, **extra}
     heldout.write(out / heldout.FILE, heldout_rows)
     checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": trainer.net.state_dict(), "step": step,
-                                       "provenance": provenance(cfg, src)})
+                                       "provenance": prov})
     return _write_outputs(out, cfg, losses, extra)

@@ -35,7 +35,7 @@ from svcore.outputs import refuse_existing
 from svcore.progress import progress
 
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
-from . import bundled_model, photo_check
+from . import bundled_model, photo_check, predict_memory
 from .checkpoint import load_model
 from .render import flash_render
 from .spec_stats import spec_stats
@@ -134,7 +134,7 @@ def write_maps(maps: torch.Tensor, out: Path) -> list[Path]:
 
 
 def check_size(size: int, stride: int) -> None:
-    """Refuse a prediction size the network cannot take; note sizes above the paper's.
+    """Refuse a prediction size the network cannot take.
 
     Raises:
         ConfigError: not a positive multiple of the network's stride (2^levels).
@@ -142,6 +142,10 @@ def check_size(size: int, stride: int) -> None:
     if size < stride or size % stride:
         raise ConfigError(f"--size {size} is not a positive multiple of the network's stride {stride} "
                           f"(2^levels); try {max(stride, round(size / stride) * stride)}")
+
+
+def note_size(size: int) -> None:
+    """Note a size above the paper's (after the checks: a refused size gets its one line alone)."""
     if size > DEFAULT_SIZE:
         log.warning("predicting at %d²: allowed, but the paper found the quality falls off above 256 "
                     "(its network saw 256² crops)", size)
@@ -226,6 +230,9 @@ def predict_many(inputs: list[str | Path], checkpoint_path: str | Path | None, o
     checkpoint_path = bundled_model.resolve(bundled_model.NAME if checkpoint_path is None else checkpoint_path)
     model, cfg = load_model(checkpoint_path)
     check_size(size, 2 ** cfg.model.levels)
+    # before any large allocation: a size or batch that cannot fit is one line, not an allocator's traceback
+    predict_memory.check(model, 2 ** cfg.model.levels, size, min(batch_size, len(photos)), dev)
+    note_size(size)
     model.to(dev)
     meta = {"checkpoint": str(Path(checkpoint_path).resolve()), "config": cfg.to_dict(), "size": size,
             "svgen_version": svgen_version(), "torch_version": torch.__version__, "device": str(dev),

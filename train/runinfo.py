@@ -3,7 +3,8 @@
 A run's config keeps ``data.store`` as the user spelled it (often relative to the project, e.g.
 ``data/renders.zarr``: what params.yaml and DVC say). ``svtrain fit`` also writes ``run.json`` into the run
 directory with the store's path relative to the run directory, which holds from anywhere and when the project
-is moved as a whole. ``svtrain eval`` (its baselines need the training split's means) finds the store through it.
+is moved as a whole. ``svtrain eval`` finds the store through it where it needs the store: for its held-out split,
+or for the baselines' means of a run from before ``svtrain fit`` recorded them with the model.
 """
 from __future__ import annotations
 
@@ -110,11 +111,12 @@ def run_dir_of(checkpoint_path: str | os.PathLike) -> Path:
     return p if p.is_dir() else p.parent
 
 
-def train_store(checkpoint_path: str | os.PathLike, store: str | None, override: str | None = None) -> str | None:
+def train_store(checkpoint_path: str | os.PathLike, store: str | None, override: str | None = None,
+                need: str = "its baselines use the training split's means") -> str | None:
     """The training store of a run, as a path valid from the current directory (None: synthetic source).
 
     Tried in order: ``override`` (``--train-store``); the recorded path relative to the run directory; the path
-    as given, if absolute or found from here.
+    as given, if absolute or found from here. ``need``: why the caller needs it (the error says so).
 
     Raises:
         StoreError: the run trained on a store and none of these finds it.
@@ -138,9 +140,24 @@ def train_store(checkpoint_path: str | os.PathLike, store: str | None, override:
     for p in tried:
         if p.exists() or Path(str(p) + ".partial").exists():
             return str(p)
-    raise StoreError(f"eval needs the run's training store (its baselines use the training split's means): "
-                     f"{store!r} is not found from {os.getcwd()} nor relative to the run directory {run}; "
-                     "pass --train-store PATH")
+    raise StoreError(f"eval needs the run's training store ({need}): {store!r} is not found from {os.getcwd()} "
+                     f"nor relative to the run directory {run}; pass --train-store PATH")
+
+
+def device_memory(device=None, local_size: int = 1) -> tuple[int, str] | None:
+    """Bytes a process may allocate on ``device`` and where, in words: the CPU's available memory shared by the
+    ``local_size`` processes of this machine (:func:`storage.bounds.available_memory`), a CUDA device's free memory;
+    None for other devices (not checked)."""
+    from storage.bounds import available_memory
+
+    kind = getattr(device, "type", "cpu")
+    if kind == "cpu":
+        return available_memory() // max(1, local_size), "of memory available"
+    if kind == "cuda":
+        import torch
+
+        return torch.cuda.mem_get_info(device)[0], f"free on {device}"
+    return None
 
 
 #: activation bytes kept per pixel and channel of an encoder level through forward and backward (float32 value,
@@ -161,7 +178,6 @@ def check_run(cfg, out_dir: str | os.PathLike, n_train: int, global_batch: int |
     Raises:
         ConfigError / StoreError: one line naming the limit.
     """
-    from storage.bounds import available_memory
     from storage.store import refuse_inside
     from svcore.errors import ConfigError
 
@@ -174,15 +190,10 @@ def check_run(cfg, out_dir: str | os.PathLike, n_train: int, global_batch: int |
                           f"use at most {n_train}")
     m, crop = cfg.model, cfg.data.crop
     per_sample = ACT_FACTOR * sum(w * (crop >> i) ** 2 for i, w in enumerate(m.widths()))
-    kind = getattr(device, "type", "cpu")
-    if kind == "cpu":
-        mem, where = available_memory() // max(1, local_size), "of memory available"
-    elif kind == "cuda":
-        import torch
-
-        mem, where = torch.cuda.mem_get_info(device)[0], f"free on {device}"
-    else:
+    free = device_memory(device, local_size)
+    if free is None:
         return
+    mem, where = free
     if b * per_sample > mem:
         raise ConfigError(f"a batch of {b} per process needs about {b * per_sample / 2**30:.1f} GiB of activations at "
                           f"crop {crop} ({per_sample / 2**20:.0f} MiB per sample), more than the "
