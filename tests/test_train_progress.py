@@ -12,6 +12,7 @@ import pytest
 import torch
 
 from train.config import resolve
+from train.evaluate import fit_means
 from train.fit import fit
 from train.synthetic import SyntheticSource
 
@@ -27,9 +28,9 @@ class DiesAt(SyntheticSource):
     """The synthetic source, failing when the batch of 0-based step ``step`` is loaded, after ``step`` steps (a run
     killed mid-way)."""
 
-    def __init__(self, step: int, batch: int):
+    def __init__(self, step: int, batch: int, before: int = 0):
         super().__init__(16, 40, 4, seed=2)
-        self.reads, self.limit = 0, step * batch
+        self.reads, self.limit = 0, step * batch + before
 
     def image(self, i):
         self.reads += 1
@@ -57,8 +58,12 @@ def test_fit_prints_progress_lines_when_stderr_is_a_pipe(tmp_path):
 def test_loss_csv_and_time_checkpoints_are_written_as_the_run_goes(tmp_path):
     b = TINY["optim.batch_size"]
     cfg = resolve("compact", None, {**TINY, "optim.checkpoint_minutes": 1e-9})
+    # the images fit reads before its first step (the baselines' training means), counted, not assumed
+    probe = DiesAt(10 ** 9, b)
+    fit_means(probe, cfg)
+    before = probe.reads
     with pytest.raises(RuntimeError, match="the run dies here"):
-        fit(cfg, tmp_path / "timed", source=DiesAt(7, b))
+        fit(cfg, tmp_path / "timed", source=DiesAt(7, b, before))
     run = tmp_path / "timed"
     # loss.csv holds the rows of the steps done before the run died (before: written only at the end)
     assert (run / "loss.csv").read_text().splitlines()[0] == "step,loss"
@@ -69,7 +74,7 @@ def test_loss_csv_and_time_checkpoints_are_written_as_the_run_goes(tmp_path):
     # by steps only, the same death leaves no checkpoint at all
     by_steps = resolve("compact", None, {**TINY, "optim.checkpoint_minutes": 0})
     with pytest.raises(RuntimeError):
-        fit(by_steps, tmp_path / "steps", source=DiesAt(7, b))
+        fit(by_steps, tmp_path / "steps", source=DiesAt(7, b, before))
     assert not (tmp_path / "steps" / "checkpoint.pt").exists()
 
     # the run continues from the timed checkpoint, and its outputs equal an uninterrupted run's
