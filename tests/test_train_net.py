@@ -176,3 +176,47 @@ def test_normal_head_and_normal_decoder_are_one_choice():
 
     with pytest.raises(ConfigError, match="normal_head"):
         resolve("compact", None, {"model.normal_head": True, "model.normal_decoder": True})
+
+
+@pytest.mark.parametrize("global_track", [True, False])
+def test_a_grown_normal_decoder_starts_as_the_network_it_grew_from(global_track):
+    """``grow_normal_decoder``: a trained one-decoder network's weights -> the two-decoder network with the same
+    maps (the paired fine-tune arm starts from the control's model). Random output layers, so every map depends on
+    every copied weight; eval mode (dropout off)."""
+    from train.net import grow_normal_decoder
+
+    cfg = dict(base_width=4, max_width=16, levels=3, zero_output=False, global_track=global_track)
+    torch.manual_seed(0)
+    one = SVBRDFNet(ModelConfig(**cfg)).eval()
+    two = SVBRDFNet(ModelConfig(**cfg, normal_decoder=True)).eval()
+    two.load_state_dict(grow_normal_decoder(one.state_dict()))  # strict: every key present, none left over
+    x = torch.rand(2, 3, 32, 32, generator=torch.Generator().manual_seed(1))
+    with torch.no_grad():
+        a, b = one(x), two(x)
+    assert a[:, 0:2].abs().max() > 1e-3  # the normal is not flat: its copy is tested, not two zeros
+    torch.testing.assert_close(b, a, rtol=0, atol=1e-6)
+
+
+def test_fit_init_grows_a_normal_decoder_from_a_one_decoder_run(tmp_path):
+    """``svtrain fit --init RUN --set model.normal_decoder=true`` accepts a one-decoder run (any other model change
+    is still refused) and its first model is the run's model grown."""
+    from svcore.errors import SvgenError
+    from train.checkpoint import init_weights
+    from train.config import resolve
+    from train.net import grow_normal_decoder
+
+    small = {"model.base_width": 4, "model.max_width": 16, "model.levels": 3, "model.zero_output": False}
+    torch.manual_seed(0)
+    base = resolve("compact", None, small)
+    net = SVBRDFNet(base.model)
+    from train.checkpoint import FORMAT
+
+    torch.save({"format": FORMAT, "model": net.state_dict(), "config": base.to_dict()}, tmp_path / "one.pt")
+    grown = resolve("compact", None, {**small, "model.normal_decoder": True, "optim.init": str(tmp_path / "one.pt")})
+    got = init_weights(grown)
+    want = grow_normal_decoder(net.state_dict())
+    assert got.keys() == want.keys() and all(torch.equal(got[k], want[k]) for k in want)
+    other = resolve("compact", None, {**small, "model.normal_decoder": True, "model.levels": 4,
+                                      "optim.init": str(tmp_path / "one.pt")})
+    with pytest.raises(SvgenError, match="model.levels"):
+        init_weights(other)

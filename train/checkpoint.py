@@ -19,7 +19,7 @@ import torch
 from svcore.errors import SvgenError
 
 from .config import Config, from_dict
-from .net import SVBRDFNet
+from .net import SVBRDFNet, grow_normal_decoder
 
 FORMAT = "svtrain-checkpoint/1"
 #: what the weights mean to :class:`SVBRDFNet` (input mapping, layer layout, output decoding): recorded in every
@@ -117,9 +117,13 @@ def init_weights(cfg: Config) -> dict[str, torch.Tensor] | None:
     state = load(source)
     theirs = dict(state["config"]["model"])
     ours = cfg.to_dict()["model"]
+    weights = state["model"]
+    if ours.get("normal_decoder") and not theirs.get("normal_decoder") and not theirs.get("normal_head"):
+        # a one-decoder model grows a normal decoder that starts as a copy of its decoder: the same maps at step 0
+        weights, theirs = grow_normal_decoder(weights), {**theirs, "normal_decoder": True}
     if {k: theirs.get(k, v) for k, v in ours.items()} != ours:
         differ = ", ".join(f"model.{k}={theirs.get(k)!r} (this run: {v!r})" for k, v in ours.items()
                            if theirs.get(k, v) != v)
         raise SvgenError(f"--init {source}: its network differs from this run's ({differ}); set the same model "
                          f"config (--set model.KEY=VALUE) to fine-tune it")
-    return state["model"]
+    return weights

@@ -176,7 +176,9 @@ class OptimConfig(ConfigModel):
     training time so far (evaluation time excluded); 0 = off (heldout.csv then holds only its header)."""
     init: str | None = None
     """start from these weights instead of the seeded initialisation (fine-tuning): a checkpoint file, a run
-    directory, or "bundled" (the model shipped in the package); its model config must equal this run's, and the
+    directory, or "bundled" (the model shipped in the package); its model config must equal this run's (or differ
+    only by ``model.normal_decoder`` turned on: the second decoder then starts as a copy of the first, the same maps,
+    ``train.net.grow_normal_decoder``), and the
     optimiser, schedule and step count start fresh. None: the seeded initialisation."""
     compile_loss: bool = True
     """torch.compile the loss renderer (fuses its elementwise ops: faster on CPU after a one-off compile, cached

@@ -267,6 +267,34 @@ class NormalDecoder(nn.Module):
         return o if self.out_bias is None else o + self.out_bias(g)[..., None, None]
 
 
+def grow_normal_decoder(state: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+    """A network's weights without ``model.normal_decoder`` -> the same function with it (fine-tuning a trained
+    model into the two-decoder network, ``svtrain fit --init``).
+
+    The normal decoder starts as a copy of the main decoder (its levels, full-resolution convolutions and the
+    normal's two rows of the output layer and its global bias); the main output layer keeps the other seven rows.
+    The grown network's maps equal the original's (up to float rounding; dropout draws differ in training), so a
+    paired fine-tune against the original network starts from the same model and what differs is the option.
+
+    Args:
+        state: a ``state_dict`` of :class:`SVBRDFNet` built with ``normal_decoder=False`` (and no normal head).
+
+    Returns:
+        A ``state_dict`` for the same config with ``normal_decoder=True``.
+    """
+    out: dict[str, torch.Tensor] = {}
+    for k, v in state.items():
+        if k.startswith(("dec.", "drop.", "fullres.")):
+            out[k] = v.clone()
+            out["normal_decoder." + k] = v.clone()
+        elif k.startswith(("out_conv.", "out_bias.")):
+            out[k] = v[2:].clone()  # weight (9, C, ...) or bias (9,): rows 0-1 are the normal's
+            out["normal_decoder." + k] = v[:2].clone()
+        else:
+            out[k] = v.clone()
+    return out
+
+
 def outputs_to_maps(o: torch.Tensor, normal_param: str = "unit") -> torch.Tensor:
     """Raw 9-channel outputs -> packed maps.
 
