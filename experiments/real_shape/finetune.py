@@ -1,0 +1,156 @@
+"""Learning arms of issue #39, paired by fine-tuning: every arm starts from the bundled model (12,000 steps) and trains
+the same steps on the same store with the same seed; what differs is the arm's one change.
+
+The real-data control (``control.py``) showed that 3,000 steps from scratch do not fit the training views' normals,
+so no arm trained that way can show an effect. Starting every arm from the bundled model, which already reads
+relief on svgen's views (13 % below flat on its held-out split), puts every arm past that bar at a 2-core budget.
+Network arms start from the same function: ``svtrain fit --init`` grows a normal decoder as a copy of the decoder
+(``train.net.grow_normal_decoder``), so the arm's first model *is* the control's.
+
+Arms (``ARMS``): ``control`` (params.yaml's train config) and the network/loss changes, each a list of
+``svtrain fit`` arguments added to the control's command.
+
+Evaluation (``svtrain eval``), every arm on the same views:
+- the real reference: the 32 CC0 materials at crop 1, the training views (``control.py``'s two fold stores; no arm
+  trained on any real material, so all 32 are unseen);
+- svgen held-out: the store's held-out split (the same split for every arm);
+- training views (``--suite train``): can the arm fit what it saw?
+and the bundled model itself on the same sets (where every arm started). Effects are arm minus control per view,
+positive = the arm is better, with 95 % bootstrap intervals over materials (:func:`train.evaluate.paired`).
+
+    python3 experiments/real_shape/control.py --work runs/rs --steps 0 --phase stores   # the stores, once
+    python3 experiments/real_shape/finetune.py --work runs/rs --out-dir runs/ft --steps 3000
+    python3 experiments/real_shape/finetune.py --work runs/rs --out-dir runs/ft --steps 3000 --phase eval
+
+Finished runs and evaluations are reused; rerun to resume. Results: ``results/finetune_<steps>.json``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).parent))
+
+from control import COLUMNS, PARAMS, evaluate, pooled_effect, table  # noqa: E402
+
+#: arm -> the `svtrain fit` arguments it adds to the control's, and what it tests.
+ARMS = {
+    "control": ([], "the bundled model trained on with params.yaml's train config"),
+    "ndec": (["--set", "model.normal_decoder=true"],
+             "a second decoder for the normal (SVBRDF-GAN's fix for flat normals), grown as a copy of the first"),
+    "rmse_late": (["--set", "optim.normal_late_loss=rmse", "--set", "optim.normal_late_from=0.3"],
+                  "the normal term as each sample's RMSE from 30 % of the run on: false relief costs as the "
+                  "evaluation counts it"),
+}
+
+
+def fit_cmd(a, store: Path, out: Path, extra: list[str]) -> list[str]:
+    return ["svtrain", "fit", "--params", PARAMS, "--store", str(store), "--out", str(out), "--init", "bundled",
+            "--iterations", str(a.steps), "--workers", "0", "--set", f"optim.threads={a.threads}",
+            "--set", f"optim.lr={a.lr}", "--set", "optim.checkpoint_minutes=5", *extra]
+
+
+def fit_arms(a, store: Path, out_dir: Path, arms: list[str]) -> None:
+    """Train the arms side by side, one torch thread each (every arm the same arithmetic)."""
+    procs = []
+    for name in arms:
+        out = out_dir / name
+        if (out / "model.pt").is_file():
+            continue
+        cmd = fit_cmd(a, store, out, ARMS[name][0])
+        f = open(out_dir / f"fit_{name}.log", "a")
+        f.write("$ " + " ".join(cmd) + "\n")
+        f.flush()
+        procs.append((name, subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT,
+                                             env={**os.environ, "SVGEN_NO_PROGRESS": "1",
+                                                  "OMP_NUM_THREADS": str(a.threads)}), f))
+    for name, p, f in procs:
+        if p.wait():
+            raise SystemExit(f"fit of {name} failed; see {out_dir / f'fit_{name}.log'}")
+        f.close()
+        print(f"fit {name} done", flush=True)
+
+
+def sets_of(run: str, out: Path, refs: list[Path], log: Path, store: Path) -> dict:
+    """The figures of one model (a run folder or "bundled") on every evaluation set; ``out`` holds its evals."""
+    r = {"train_views": table(evaluate(run, out / "eval_train", log, "--suite", "train", "--store", str(store))),
+         "heldout": table(evaluate(run, out / "eval_heldout", log, "--store", str(store)))}
+    for i, ref in enumerate(refs):
+        r[f"reference_{i}"] = table(evaluate(run, out / f"eval_ref{i}", log, "--store", str(ref)))
+    return r
+
+
+def spec(out: Path, refs: list[Path]) -> dict:
+    """The specular-copying statistics of the model's maps on the real reference (eval.json's spec_stats)."""
+    got = {}
+    for i in range(len(refs)):
+        ev = json.loads((out / f"eval_ref{i}" / "eval.json").read_text())
+        got[f"reference_{i}"] = ev.get("spec_stats")
+    return got
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--work", default=str(ROOT / "runs" / "real_shape"),
+                    help="control.py's scratch folder: its train/renders.zarr and fold<i>/ref/renders.zarr are used")
+    ap.add_argument("--out-dir", default=None, help="where the runs go (default WORK/finetune)")
+    ap.add_argument("--steps", type=int, required=True)
+    ap.add_argument("--lr", type=float, default=3e-4, help="Adam learning rate of every arm (cosine to 5 %%)")
+    ap.add_argument("--threads", type=int, default=1, help="torch threads per run (every arm the same)")
+    ap.add_argument("--arms", nargs="*", default=list(ARMS), help=f"arms (control first): {', '.join(ARMS)}")
+    ap.add_argument("--phase", choices=("all", "fit", "eval"), default="all")
+    ap.add_argument("--out", default=None, help="results JSON (default results/finetune_<steps>.json here)")
+    a = ap.parse_args(argv)
+    unknown = [x for x in a.arms if x not in ARMS]
+    if unknown or "control" not in a.arms:
+        raise SystemExit(f"--arms: unknown {unknown} or no control; choose from {', '.join(ARMS)}")
+    work = Path(a.work).resolve()
+    out_dir = Path(a.out_dir).resolve() if a.out_dir else work / "finetune"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    store = work / "train" / "renders.zarr"
+    refs = sorted(work.glob("fold*/ref/renders.zarr"))
+    if not store.is_dir() or not refs:
+        raise SystemExit(f"{work} has no train/renders.zarr or fold*/ref/renders.zarr: run control.py --phase stores")
+    log = out_dir / "commands.log"
+    if a.phase in ("all", "fit"):
+        fit_arms(a, store, out_dir, a.arms)
+        if a.phase == "fit":
+            return
+    res = {"question": "which learning change reads real relief (and no false relief) better, fine-tuned from the "
+                       "bundled model: paired arms, same store, seed, steps and lr",
+           "steps": a.steps, "lr": a.lr, "threads_per_run": a.threads, "store": str(store.relative_to(work)),
+           "references": [str(r.relative_to(work)) for r in refs],
+           "commands": {n: " ".join(fit_cmd(a, Path("STORE"), Path("OUT") / n, ARMS[n][0])) for n in a.arms},
+           "bundled": sets_of("bundled", out_dir / "bundled", refs, log, store), "arms": {}}
+    ctl = out_dir / "control"
+    for name in a.arms:
+        run = out_dir / name
+        r = {"what": ARMS[name][1], "args": ARMS[name][0], **sets_of(str(run), run, refs, log, store),
+             "spec_stats": spec(run, refs)}
+        if name != "control":
+            r["effect_reference"] = pooled_effect([(ctl / f"eval_ref{i}", run / f"eval_ref{i}")
+                                                   for i in range(len(refs))])
+            r["effect_heldout"] = pooled_effect([(ctl / "eval_heldout", run / "eval_heldout")])
+        res["arms"][name] = r
+    # the control against where it started: what the steps alone did
+    res["control_vs_bundled_reference"] = pooled_effect([(out_dir / "bundled" / f"eval_ref{i}", ctl / f"eval_ref{i}")
+                                                         for i in range(len(refs))])
+    out = Path(a.out) if a.out else Path(__file__).parent / "results" / f"finetune_{a.steps}.json"
+    out.parent.mkdir(exist_ok=True)
+    out.write_text(json.dumps(res, indent=1) + "\n")
+    for name, r in res["arms"].items():
+        print(name, {k: r[k]["normal_over_flat"] for k in r if isinstance(r[k], dict) and "normal_over_flat" in r[k]})
+        if "effect_reference" in r:
+            print("  effect on the reference:", {c: (r["effect_reference"][c]["gain"], r["effect_reference"][c]["ci95"])
+                                                 for c in COLUMNS})
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
