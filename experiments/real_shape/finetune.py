@@ -129,6 +129,9 @@ def main(argv=None) -> None:
            "commands": {n: " ".join(fit_cmd(a, Path("STORE"), Path("OUT") / n, ARMS[n][0])) for n in a.arms},
            "bundled": sets_of("bundled", out_dir / "bundled", refs, log, store), "arms": {}}
     ctl = out_dir / "control"
+    unfinished = [n for n in a.arms if not (out_dir / n / "model.pt").is_file()]
+    if unfinished:  # a checkpoint mid-run would be evaluated (and its evaluation reused) as if it were the arm
+        raise SystemExit(f"arms not finished (no model.pt): {', '.join(unfinished)}; run --phase fit first")
     for name in a.arms:
         run = out_dir / name
         r = {"what": ARMS[name][1], "args": ARMS[name][0], **sets_of(str(run), run, refs, log, store),
