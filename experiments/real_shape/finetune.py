@@ -44,6 +44,9 @@ ARMS = {
     "control": ([], "the bundled model trained on with params.yaml's train config"),
     "ndec": (["--set", "model.normal_decoder=true"],
              "a second decoder for the normal (SVBRDF-GAN's fix for flat normals), grown as a copy of the first"),
+    "mixed": (["--set", "optim.map_l1=0.1"],
+              "the 2019 mixed loss: + 0.1 x L1 on the maps (direct supervision of a grey, flat specular where the "
+              "render loss lets diffuse texture leak into it)"),
     "rmse_late": (["--set", "optim.normal_late_loss=rmse", "--set", "optim.normal_late_from=0.3"],
                   "the normal term as each sample's RMSE from 30 % of the run on: false relief costs as the "
                   "evaluation counts it"),
