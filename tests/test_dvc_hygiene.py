@@ -1,6 +1,6 @@
 """DVC as its users expect it (issue #14): deps that cover every imported module, no machine settings in the
-commands, a small flat `dvc metrics show`, `dvc plots show` drawing the README's charts, every config key one
-`dvc exp run -S` away, and a `dvc push` / `dvc pull` round trip through a local directory remote.
+commands, a small flat `dvc metrics show`, `dvc plots show` drawing the charts of docs/PERFORMANCE.md, every config
+key one `dvc exp run -S` away, and a `dvc push` / `dvc pull` round trip through a local directory remote.
 
 The static checks read dvc.yaml, params.yaml and the source; the others run `dvc repro` once on a temporary copy
 of the repository with the repository's params.yaml and tiny values (tests/test_dvc_pipeline.py's copy rules).
@@ -227,7 +227,7 @@ def test_metrics_show_is_small_flat_and_numeric(repro):
     assert json.loads((repro / "runs/train/metrics.json").read_text())["done"] is True
 
 
-# -- 4. plots that draw the README's charts -------------------------------------------------------------------
+# -- 4. plots that draw the docs' charts ----------------------------------------------------------------------
 def test_plots_show_draws_the_readme_charts(repro):
     shown = json.loads(sh(["dvc", "plots", "show", "--json"], repro, env=FAST).stdout)
     assert not shown.get("errors"), shown.get("errors")

@@ -162,14 +162,14 @@ def test_bad_input_is_one_line_and_exit_2(run_dir, tmp_path, case):
 
 
 def test_the_readme_snippet_runs_the_exported_model(exported, tmp_path):
-    """The README's few lines of onnxruntime (no svgen import) run as written on a photo."""
+    """docs/MODEL.md's few lines of onnxruntime (no svgen import) run as written on a photo."""
     import re
     import shutil
     import subprocess
     import sys
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[1] / "docs" / "MODEL.md").read_text()
     code = re.search(r"\*\*ONNX\*\*.*?```python\n(.*?)```", readme, re.S).group(1)
     assert "import train" not in code and "svgen" not in code.replace('"svgen.onnx"', "")
     shutil.copy(exported, tmp_path / "svgen.onnx")

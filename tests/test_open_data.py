@@ -1,6 +1,6 @@
 """Stores that read themselves (issue 14): xarray opens every kind of store and decodes what svgen's own readers
 read; renders stores record the held-out split that training uses; every finished store carries a dataset card
-(`svgen card`); the README's xarray example runs as written."""
+(`svgen card`); the xarray example of docs/DATA.md runs as written."""
 from __future__ import annotations
 
 import json
@@ -19,6 +19,7 @@ from import_fixtures import bumpy_normals, height_field, matsynth
 from test_bad_input import call
 
 README = Path(__file__).resolve().parents[1] / "README.md"
+DATA_DOC = README.parent / "docs" / "DATA.md"  # the store format, "Reading the data without svgen"
 PRESETS = ("paint/glossy_red", "wood/oak_planks", "metal/brushed_steel", "plastic/glossy_blue")
 #: 16-bit codes: svgen decodes in float32 (code / 65535), xarray in float64 (code * scale_factor); they differ by
 #: float32 rounding, < 1e-7 on values in [0, 1].
@@ -265,12 +266,12 @@ def test_a_partial_store_has_no_card(tmp_path, svgen_cli):
     assert code == 2 and err.count("\n") == 1 and "incomplete" in err, err
 
 
-# -- the README example ----------------------------------------------------------------------------------------------
+# -- the docs example -------------------------------------------------------------------------------------------------
 def readme_example() -> str:
-    """The python block after the ``xarray-example`` marker of README.md."""
-    text = README.read_text()
+    """The python block after the ``xarray-example`` marker of docs/DATA.md."""
+    text = DATA_DOC.read_text()
     m = re.search(r"<!-- xarray-example:.*?-->\s*```python\n(.*?)```", text, re.S)
-    assert m, "README.md lost its xarray example"
+    assert m, "docs/DATA.md lost its xarray example"
     return m.group(1)
 
 
@@ -415,16 +416,17 @@ def first_paragraph_on_xarray(text: str) -> str:
 @pytest.mark.filterwarnings("ignore:saving variable:xarray.SerializationWarning")
 @pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
 def test_the_docs_say_first_why_plain_open_zarr_falls_short_and_it_does(stores, tmp_path, name):
-    """The README (its first hour and "Reading the data without svgen") and every store's card say, in their first
-    paragraph about xarray, that ``storage.dataset.open_dataset`` is needed and why; and plain ``xr.open_zarr``
+    """The README (its first hour), docs/DATA.md ("Reading the data without svgen") and every store's card say, in
+    their first paragraph about xarray, that ``storage.dataset.open_dataset`` is needed and why; and plain ``xr.open_zarr``
     falls short just so: 16-bit maps decode to float64 (xarray takes the decoded type from the Python type of
     ``scale_factor``, and zarr attributes are JSON, whose numbers read back as float64) and ``to_netcdf`` raises
     TypeError on the nested ``svgen``/``config`` attributes. If xarray ever does either by itself, this fails:
-    update the docs (storage.card.XARRAY_NOTE, README) and storage.dataset, which then has one thing less to do."""
+    update the docs (storage.card.XARRAY_NOTE, README, docs/DATA.md) and storage.dataset, which then has one thing
+    less to do."""
     readme = README.read_text()
     docs = {"README, first hour": first_paragraph_on_xarray(readme),
-            "README, reading without svgen": first_paragraph_on_xarray(
-                readme.split("## Reading the data without svgen", 1)[1]),
+            "docs/DATA.md, reading without svgen": first_paragraph_on_xarray(
+                DATA_DOC.read_text().split("## Reading the data without svgen", 1)[1]),
             "card": first_paragraph_on_xarray((stores / f"{name}.zarr" / "README.md").read_text())}
     for where, text in docs.items():
         assert all(p in text for p in PLAIN_LIMITS), (where, [p for p in PLAIN_LIMITS if p not in text], text)

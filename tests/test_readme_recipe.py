@@ -1,5 +1,6 @@
-"""The README's paper-scale recipe (`dvc exp run -S ...`) stays valid: applied to params.yaml the way DVC applies
-`-S key=value` (the value parsed as YAML), every stage config resolves and the scale is the paper's."""
+"""The paper-scale recipe of docs/TRAINING.md (`dvc exp run -S ...`, the README links it) stays valid: applied to
+params.yaml the way DVC applies `-S key=value` (the value parsed as YAML), every stage config resolves and the scale
+is the paper's."""
 from __future__ import annotations
 
 import re
@@ -17,9 +18,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def recipe_overrides() -> dict[str, object]:
-    text = (ROOT / "README.md").read_text()
+    text = (ROOT / "docs" / "TRAINING.md").read_text()
     m = re.search(r"<!-- paper-scale.*?-->\s*```\n(.*?)```", text, re.S)
-    assert m, "README.md lost its paper-scale block"
+    assert m, "docs/TRAINING.md lost its paper-scale block"
+    assert "(docs/TRAINING.md#paper-scale)" in (ROOT / "README.md").read_text()
     words = shlex.split(m.group(1).replace("\\\n", " "))
     assert words[:3] == ["dvc", "exp", "run"], words[:3]
     sets = [words[k + 1] for k, w in enumerate(words) if w == "-S"]
@@ -65,7 +67,7 @@ def _flat(d: dict, prefix: str = "") -> dict:
 
 
 def test_the_paper_presets_are_the_one_source_of_the_recipes_figures(tmp_path):
-    """Issue #25 item 15: each stage's `paper` config preset and the README recipe set the same values (the
+    """Issue #25 item 15: each stage's `paper` config preset and the docs' recipe set the same values (the
     sample preset said 12 variants per material, the recipe 36), and the --per-preset help quotes no other."""
     path = recipe_params(tmp_path)
     for cls in (SampleConfig, BlendConfig, RenderConfig):
