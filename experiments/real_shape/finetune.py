@@ -55,7 +55,7 @@ ARMS = {
 
 #: views of each svgen set evaluated per model (``--limit``: the first of the suite's views; the real reference is
 #: evaluated whole, 320 views): about 1.1 CPU-s a view on the 2-core machine, so 4 models x 3 sets fit in 25 minutes.
-TRAIN_VIEWS, HELDOUT_VIEWS = 200, 200
+TRAIN_VIEWS, HELDOUT_VIEWS = 100, 200
 
 
 def fit_cmd(a, store: Path, out: Path, extra: list[str]) -> list[str]:
