@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -30,11 +31,15 @@ NETWORK_FORMAT = 1
 
 def plain(value: Any, where: str = "state") -> Any:
     """``value`` with numpy scalars/arrays turned into Python numbers/tensors, checked to hold nothing that a
-    ``weights_only`` load refuses.
+    ``weights_only`` load refuses; strings interned, so that equal states pickle to equal bytes (pickle writes an
+    object it meets twice as a reference to the first: the strings of a state loaded from a checkpoint are other
+    objects than a fresh run's, and a resumed run's checkpoint would differ from the uninterrupted run's).
 
     Raises:
         TypeError: another type (a programming error: the checkpoint could not be loaded back).
     """
+    if type(value) is str:
+        return sys.intern(value)
     if value is None or isinstance(value, (bool, int, float, str, torch.Tensor, torch.dtype, torch.device)):
         return value
     if isinstance(value, np.generic):
@@ -42,7 +47,7 @@ def plain(value: Any, where: str = "state") -> Any:
     if isinstance(value, np.ndarray):
         return torch.from_numpy(np.ascontiguousarray(value))
     if isinstance(value, dict):
-        return {k: plain(v, f"{where}[{k!r}]") for k, v in value.items()}
+        return {sys.intern(k) if type(k) is str else k: plain(v, f"{where}[{k!r}]") for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return type(value)(plain(v, f"{where}[{i}]") for i, v in enumerate(value))
     raise TypeError(f"checkpoint {where} is a {type(value).__name__}: store plain data or tensors")
@@ -125,5 +130,5 @@ def init_weights(cfg: Config) -> dict[str, torch.Tensor] | None:
         differ = ", ".join(f"model.{k}={theirs.get(k)!r} (this run: {v!r})" for k, v in ours.items()
                            if theirs.get(k, v) != v)
         raise SvgenError(f"--init {source}: its network differs from this run's ({differ}); set the same model "
-                         f"config (--set model.KEY=VALUE) to fine-tune it")
+                         f"config (--set model.KEY=VALUE) to fine-tune it, or --set optim.init=null to train from scratch")
     return weights
