@@ -96,11 +96,13 @@ def sets_of(run: str, out: Path, refs: list[Path], log: Path, store: Path) -> di
 
 
 def spec(out: Path, refs: list[Path]) -> dict:
-    """The specular-copying statistics of the model's maps on the real reference (eval.json's spec_stats)."""
+    """Median specular-copying statistics (``train.spec_stats``) of the model's maps and of the ground truth on the
+    real reference and the held-out views (eval.json's ``specular_copy``)."""
     got = {}
-    for i in range(len(refs)):
-        ev = json.loads((out / f"eval_ref{i}" / "eval.json").read_text())
-        got[f"reference_{i}"] = ev.get("spec_stats")
+    for name in [f"eval_ref{i}" for i in range(len(refs))] + ["eval_heldout"]:
+        ev = json.loads((out / name / "eval.json").read_text())["specular_copy"]
+        got[name[5:]] = {who: {stat: round(q["median"], 3) for stat, q in ev[who].items()}
+                         for who in ("model", "ground_truth")}
     return got
 
 
