@@ -14,7 +14,8 @@ only). ``--design ofat`` varies one factor at a time from the defaults (5 cells)
    (the data stages are unchanged, so their outputs come from DVC's cache and run cache, not a rerun);
 3. runs the queue (``dvc queue start -j N``) and waits for it;
 4. reads ``dvc exp show --json`` (params, metrics, the experiment commits) and, from each experiment's commit, the
-   held-out curve (runs/train/heldout.csv) and the per-view errors (runs/eval*/per_view.csv);
+   held-out curve (runs/train/heldout.csv, by step; its CPU axis from the calibration: :func:`cpu_axis`) and the
+   per-view errors (runs/eval*/per_view.csv);
 5. computes each claim's effect per column and suite (benchmarks/ablation_effects.py) -> ``--out`` (ablation.json)
    and the effects table beside it (ablation.md).
 
@@ -127,7 +128,7 @@ def calibrate(project: Path, grid: dict, store: str, steps: tuple[int, int], ext
                        *itertools.chain.from_iterable(("--set", f"{k}={yaml_value(v)}")
                                                       for k, v in overrides(arms).items())]
                 sh(cmd, project)
-                m = json.loads((Path(tmp) / "metrics.json").read_text())
+                m = json.loads((Path(tmp) / "timing.json").read_text())  # the run's clock (train/timing.py)
             runs.append({"steps": n, "train_cpu_s": m["train_cpu_s"], "train_wall_s": m["train_wall_s"],
                          "command": shlex.join(cmd)})
         warmup, runs = runs[0], runs[1:]
@@ -270,8 +271,22 @@ def views_of(per_view: dict) -> dict[str, list[int]]:
     return {s: [int(r["view"]) for r in rows] for s, rows in per_view.items()}
 
 
-def collect(project: Path, grid: dict, names: dict, commands: dict, statuses: dict) -> dict:
-    """cell -> seed -> what one experiment gave."""
+def cpu_axis(rows: list[dict], cost: dict | None) -> list[dict]:
+    """The held-out curve's rows with ``cpu_s``, the training CPU seconds at each row's step from the calibration
+    of the cell's cost class (``cost``: its ``overhead_cpu_s`` + step x ``cpu_s_per_step``); unchanged without one.
+
+    An experiment's own clock is not among its outputs: DVC hashes every declared output, and a clock in one would
+    change dvc.lock on every run (issue #40; train/timing.py). The calibrated cost is also what set each cell's
+    steps, so the curves compare the arms at the training cost their budget was computed from."""
+    if not cost:
+        return rows
+    return [{**r, "cpu_s": cost.get("overhead_cpu_s", 0.0) + r["step"] * cost["cpu_s_per_step"]} for r in rows]
+
+
+def collect(project: Path, grid: dict, names: dict, commands: dict, statuses: dict,
+            calib: dict | None = None) -> dict:
+    """cell -> seed -> what one experiment gave (``calib``: the calibration, whose costs give the curves their
+    CPU axis, :func:`cpu_axis`)."""
     shown = exp_show(project)
     runs: dict[str, dict[str, dict]] = {}
     for (cell, seed), name in names.items():
@@ -282,12 +297,14 @@ def collect(project: Path, grid: dict, names: dict, commands: dict, statuses: di
         rev = exp["rev"]
         fit_metrics = json.loads(exp_file(project, rev, FIT_METRICS) or "{}")
         pv = per_view_of(project, rev)
+        cost = (calib or {}).get(cost_key(grid[cell]))
         runs.setdefault(cell, {})[str(seed)] = {
             "exp": name, "rev": rev, "status": statuses.get(name), "command": commands[(cell, seed)],
             "train_params": exp["params"].get("train"), "metrics": exp["metrics"],
-            "steps": fit_metrics.get("step"), "train_cpu_s": fit_metrics.get("train_cpu_s"),
-            "train_wall_s": fit_metrics.get("train_wall_s"),
-            "heldout_curve": read_csv(exp_file(project, rev, HELDOUT_CSV)),
+            "steps": fit_metrics.get("step"),
+            "train_cpu_s": cpu_axis([{"step": fit_metrics["step"]}], cost)[0].get("cpu_s")
+            if "step" in fit_metrics else None,
+            "heldout_curve": cpu_axis(read_csv(exp_file(project, rev, HELDOUT_CSV)), cost),
             "views": views_of(pv), "per_view": {s: [{k: r[k] for k in ("svbrdf", *COLUMNS)} for r in rows]
                                                 for s, rows in pv.items()}}
     return runs
@@ -344,7 +361,7 @@ def main(argv=None) -> int:
     statuses = run_queue(project, a.jobs)
     wall = time.perf_counter() - t0
     failed = {n: s for n, s in statuses.items() if n in names.values() and s != "Success"}
-    runs = collect(project, grid, names, commands, statuses)
+    runs = collect(project, grid, names, commands, statuses, calib)
     eff = effects(grid, runs)
     result = {"design": a.design, "seeds": a.seeds, "cpu_budget_s": a.cpu_budget if a.steps is None else None,
               "split_seed": a.split_seed, "factors": FACTORS, "defaults": DEFAULTS, "claims": CLAIMS,

@@ -3,7 +3,9 @@ choice and its alternative side by side with their seed spread; rebuilt from abl
 
 One panel per claim (global track, rendering loss vs L1 on the maps, the normal term, blends): each arm's held-out
 re-render RMSE along its fit (runs/train/heldout.csv of every experiment: the same held-out views for every cell)
-against the training CPU seconds, the mean over seeds as a line and the seeds' range as a band. The effects table
+against the training CPU seconds (the calibrated cost of the cell at each step, ablation.py's ``cpu_axis``; a grid
+run with ``--steps`` and no calibration: against steps), the mean over seeds as a line and the seeds' range as a
+band. The effects table
 (each claim's mean difference and bootstrap interval per column and suite) is written beside the PNG as markdown.
 
 Usage: python3 benchmarks/charts_ablation.py [ablation.json] [out.png]
@@ -24,15 +26,15 @@ DEFAULT_PNG = IMG / "chart_ablation.png"
 COLOURS = ("tab:blue", "tab:orange")
 
 
-def curve(runs: dict, column: str = "rerender") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-    """(cpu_s, mean, low, high) over the seeds of one cell, on the steps every seed evaluated (CPU seconds: their
-    mean at that step)."""
+def curve(runs: dict, column: str = "rerender", x: str = "cpu_s") -> tuple[np.ndarray, ...] | None:
+    """(x, mean, low, high) over the seeds of one cell, on the steps every seed evaluated (``x``: ``cpu_s``, the
+    seeds' mean CPU seconds at that step, or ``step``)."""
     curves = [r["heldout_curve"] for r in runs.values() if r.get("heldout_curve")]
     if not curves:
         return None
     steps = sorted(set.intersection(*({row["step"] for row in c} for c in curves)))
     at = [{row["step"]: row for row in c} for c in curves]
-    cpu = np.array([[a[s]["cpu_s"] for s in steps] for a in at]).mean(0)
+    cpu = np.array([[a[s][x] for s in steps] for a in at], np.float64).mean(0)
     err = np.array([[a[s][column] for s in steps] for a in at])
     return cpu, err.mean(0), err.min(0), err.max(0)
 
@@ -42,6 +44,8 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
     plt = pyplot()
     d = json.loads(Path(json_path).read_text())
     claims = [(name, e) for name, e in d["effects"].items()]
+    rows = [row for c in d["cells"].values() for r in c["runs"].values() for row in r.get("heldout_curve") or []]
+    x = "cpu_s" if rows and all("cpu_s" in row for row in rows) else "step"  # no calibration: steps
     n = max(1, len(claims))
     ncols = min(3, n)  # wrapped: five panels in one row are too small to read at the README's width
     nrows = -(-n // ncols)
@@ -53,7 +57,7 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
         for colour, (role, cells) in zip(COLOURS, (("choice", [p[0] for p in e["pairs"]]),
                                                    ("alternative", [p[1] for p in e["pairs"]]))):
             for k, cell in enumerate(dict.fromkeys(cells)):
-                c = curve(d["cells"][cell]["runs"])
+                c = curve(d["cells"][cell]["runs"], x=x)
                 if c is None:
                     continue
                 cpu, mean, lo, hi = c
@@ -65,7 +69,7 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
         sub = (f"\nheld-out re-render: {eff['mean']:+.4f} [{eff['ci95'][0]:+.4f}, {eff['ci95'][1]:+.4f}]"
                if eff else "")
         ax.set_title(f"{name}{sub}", fontsize=10)
-        ax.set_xlabel("training CPU seconds")
+        ax.set_xlabel("training CPU seconds" if x == "cpu_s" else "training steps")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     for row in axes:

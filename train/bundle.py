@@ -80,7 +80,7 @@ def weights_state(run: Path) -> dict[str, Any]:
     """The run's model.pt reduced to what the package ships: no optimiser, no machine paths."""
     state = checkpoint.load(run / "model.pt")
     prov = json.loads(json.dumps(state.get("provenance", {})))
-    prov.get("data", {}).pop("store_resolved", None)  # an absolute path of the training machine
+    prov.get("data", {}).pop("store_resolved", None)  # an absolute path of the training machine (older runs)
     return {"config": state["config"], "model": state["model"], "step": state["step"], "provenance": prov,
             "network_format": state.get("network_format", checkpoint.NETWORK_FORMAT)}
 
@@ -222,7 +222,11 @@ def bundle(run_dir: str | Path, stress_store: str | None = None, into: str | Pat
     if not (run / "model.pt").is_file() or not (run / "metrics.json").is_file():
         raise SvgenError(f"{run} is not a finished svtrain run (no model.pt and metrics.json): run `svtrain fit` "
                          "to the end first")
-    metrics = json.loads((run / "metrics.json").read_text())
+    from . import timing
+
+    # the card's training time: the run's clock (timing.json; metrics.json of runs from before it held the clock)
+    metrics = {**json.loads((run / "metrics.json").read_text()),
+               **{k: v for k, v in timing.read(run).items() if k in timing.KEYS and v is not None}}
     state = weights_state(run)
     store = state["config"]["data"]["store"]
     if not store:

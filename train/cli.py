@@ -50,8 +50,12 @@ def fit(cfg, out, no_resume, resume_if_unchanged):
     resume = False if no_resume else ("if-unchanged" if resume_if_unchanged else True)
     if distributed.world_from_env().size == 1 and cfg.compute.nproc > 1:
         distributed.launch_checked(cfg, out, resume=resume)
-        click.echo(json.dumps(json.loads(Path(out, "metrics.json").read_text())))
-        _wrote(out, "model.pt, metrics.json, loss.png")
+        from . import timing
+
+        clocked = timing.read(out)
+        click.echo(json.dumps({**json.loads(Path(out, "metrics.json").read_text()),
+                               **{k: clocked.get(k) for k in timing.KEYS}}))
+        _wrote(out, "model.pt, metrics.json, loss.png; timing.json: the clock")
         return
     try:
         metrics = run_fit(cfg, out, resume=resume)
@@ -65,7 +69,7 @@ def fit(cfg, out, no_resume, resume_if_unchanged):
         raise
     if distributed.world_from_env().main and not os.environ.get(distributed.ERROR_DIR_ENV):
         click.echo(json.dumps(metrics))  # (under svtrain's own launcher, the launcher prints it)
-        _wrote(out, "model.pt, metrics.json, loss.png")
+        _wrote(out, "model.pt, metrics.json, loss.png; timing.json: the clock")
 
 
 def _wrote(where, what: str) -> None:

@@ -471,5 +471,19 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str | None
     (out / "eval.json").write_text(json.dumps(res, indent=2) + "\n")
     dvc_metrics.write(out / dvc_metrics.EVAL_FILE, dvc_metrics.eval_metrics(res))  # what `dvc metrics` shows
     (out / "eval.md").write_text(markdown(res))
-    plot_eval(groups_of(res), out / "eval.png", f"svtrain eval --suite {suite}: {checkpoint_path}")
+    plot_eval(groups_of(res), out / "eval.png",
+              f"svtrain eval --suite {suite}: {shown_checkpoint(checkpoint_path, out)}")
     return res
+
+
+def shown_checkpoint(checkpoint_path: str | Path, out_dir: str | Path) -> str:
+    """How eval.png names the model: "bundled", else its path relative to the output folder's parent, as a store
+    records its inputs relative to its own directory (``runs/train`` from ``runs/eval``: ``train``), so that neither
+    the working directory nor the spelling of the paths changes a byte."""
+    import os
+
+    from .bundled_model import is_bundled
+
+    if is_bundled(checkpoint_path):
+        return "bundled"
+    return os.path.relpath(Path(checkpoint_path).resolve(), Path(out_dir).resolve().parent)

@@ -36,6 +36,7 @@ from . import bundled_model, checkpoint
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 from .config import from_dict
 from .net import SVBRDFNet
+from .runinfo import run_versions
 
 log = get_logger(__name__)
 
@@ -78,7 +79,7 @@ def load_for_export(ckpt: str | Path) -> tuple[SVBRDFNet, dict, str]:
     """
     path = Path(bundled_model.resolve(ckpt))
     state = checkpoint.load(path)
-    here = svgen_version()
+    here = run_versions()["svgen"]  # as a run records its code: the digest of the training code
     theirs = str(state.get("provenance", {}).get("versions", {}).get("svgen", "unknown"))
     fmt = int(state.get("network_format", 1))
     if fmt != checkpoint.NETWORK_FORMAT:

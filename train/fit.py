@@ -10,10 +10,13 @@ one rank (train/distributed.py) and rank 0 alone writes. :class:`Trainer` is the
 checkpoints, progress and outputs around it, and the benchmarks iterate the same object.
 
 Outputs in the run directory: ``config.yaml`` (the resolved config as a params file with a ``train:`` section),
-``checkpoint.pt`` (full state), ``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config preset, library
-versions, and the training split's map means that ``svtrain eval``'s baselines use, so that evaluating a model needs
-no copy of its training store), ``metrics.json`` (everything), ``fit_metrics.json`` (the few numbers `dvc metrics`
-shows), ``loss.csv``, ``loss.png``.
+``checkpoint.pt`` (full state), ``model.pt`` (weights + config + provenance), ``provenance.json`` (data source, config
+preset, library versions and the digest of the training code, and the training split's map means that ``svtrain
+eval``'s baselines use, so that evaluating a model needs no copy of its training store), ``metrics.json`` (what the
+run gave), ``fit_metrics.json`` (the few numbers `dvc metrics` shows), ``loss.csv``, ``loss.png``, ``heldout.csv``.
+These are DVC outputs: the same code, params and data write the same bytes on any machine, checkout, date and
+working directory. The clock (it/s, training wall and CPU seconds, the held-out curve's times), the store's absolute
+path and the package version go to ``timing.json`` (train/timing.py), which DVC does not hash.
 """
 from __future__ import annotations
 
@@ -27,14 +30,12 @@ from typing import Iterator
 import numpy as np
 import torch
 
-from svcore.config import params_text
 from svcore.errors import ConfigError, SvgenError
 from svcore.log import get_logger
 from svcore.progress import progress
 from svcore.seeds import stream_seed
-from svcore.versions import library_versions
 
-from . import checkpoint, dvc_metrics, heldout, loader_memory, runinfo
+from . import checkpoint, dvc_metrics, heldout, loader_memory, runinfo, timing
 from .config import Config, OptimConfig
 from .data import PairDataset, make_loader, open_source, split_for
 from .device import Placement, placement
@@ -63,24 +64,19 @@ def build(cfg: Config) -> tuple[SVBRDFNet, torch.optim.Optimizer, torch.Generato
 
 
 def provenance(cfg: Config, src) -> dict:
-    """What a run trained on and with: the config preset, the data source (a renders store's path and config
-    hash, or the synthetic source's settings) and the library versions (stores record the same)."""
+    """What a run trained on and with: the config preset, the data source (a renders store's path as given, kind,
+    config hash and size, or the synthetic source's settings) and the versions (:func:`train.runinfo.run_versions`:
+    the libraries' and the digest of the training code, as stores record theirs). Nothing of the machine or the
+    checkout: the store's absolute path and the package version go to timing.json (:func:`train.timing.where`)."""
     if cfg.data.store:
         meta = getattr(src, "attrs", {}).get("svgen", {})
-        data = {"store": str(cfg.data.store), "store_resolved": _resolved(cfg.data.store),
-                "kind": meta.get("kind"), "config_hash": meta.get("config_hash"), "n": meta.get("n")}
+        data = {"store": str(cfg.data.store), "kind": meta.get("kind"), "config_hash": meta.get("config_hash"),
+                "n": meta.get("n")}
     else:  # the source actually used (a caller may pass its own), not the config's synthetic_* defaults
         data = {"synthetic": {k: getattr(src, a, None) for k, a in (("samples", "n"), ("size", "size"),
                                                                     ("materials", "n_materials"), ("seed", "seed"),
                                                                     ("kind", "kind"))}}
-    return {"config_preset": cfg.preset, "data": data, "versions": library_versions()}
-
-
-def _resolved(store) -> str:
-    """A store argument as recorded: an object-store URL as given, a local path resolved."""
-    from storage.objstore import is_object_url, local_path
-
-    return str(store) if is_object_url(store) else str(Path(local_path(store)).resolve())
+    return {"config_preset": cfg.preset, "data": data, "versions": runinfo.run_versions()}
 
 
 def lr_at(o: OptimConfig, step: int) -> float:
@@ -300,6 +296,7 @@ def write_loss_csv(path: Path, rows: list[tuple[int, float]]) -> None:
 
 
 def _write_outputs(out: Path, cfg: Config, losses: list[float], extra: dict) -> dict:
+    """loss.csv, metrics.json (``extra`` holds no clock: that is timing.json's), fit_metrics.json and loss.png."""
     o = cfg.optim
     arr = np.asarray(losses, np.float64)
     rows = loss_rows(losses, o.log_every)
@@ -372,7 +369,8 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None
         show_progress: force the progress bar on/off.
 
     Returns:
-        the metrics dict (also in metrics.json; on ranks other than 0 nothing is written).
+        the metrics dict (metrics.json) with the clock and the resume step of timing.json (:data:`train.timing.KEYS`;
+        on ranks other than 0 nothing is written).
     """
     cfg.check()
     checkpoint.init_weights(cfg)  # a bad --init fails before the run directory exists
@@ -435,28 +433,45 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
         # the baselines' training means travel with the model: `svtrain eval` then needs no training store
         prov[MEANS_KEY] = fit_means(src, cfg)
         runinfo.record(out, cfg.data.store)
-        (out / "config.yaml").write_text(params_text(cfg))  # a params file: `svtrain fit --params` reruns it
+        # a params file (`svtrain fit --params` reruns it), less the machine's settings (runinfo.recorded_config)
+        (out / "config.yaml").write_text(runinfo.config_text(cfg))
         (out / "provenance.json").write_text(json.dumps(prov, indent=2) + "\n")
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment,
                      centre=cfg.data.crop_at == "centre")
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
 
+    def timings(step: int, it_per_s: float | None = None) -> dict:
+        """timing.json's content at ``step`` (the clock left running)."""
+        wall, cpu = clock.totals()
+        return {"checkpoint": {"step": step, "losses_sha256": timing.losses_digest(losses)},
+                "it_per_s": it_per_s, "train_wall_s": wall, "train_cpu_s": cpu, "resumed_from": resumed_from,
+                "clock_from_step": prior["clock_from_step"],
+                "heldout": [{"step": s, **times[s]} for s in sorted(times)], **here}
+
     def save(step: int) -> None:
         st = trainer.state(step, losses)  # every rank (gathers the ranks' RNG states)
+        st["config"] = runinfo.recorded_config(cfg)
         st["resume_key"], st["data"], st["provenance"] = key, data, prov
-        st["heldout"], st["train_clock"] = heldout_rows, clock.totals()  # a resumed run continues from them
+        st["heldout"] = heldout_rows  # a resumed run continues the curve (its times: timing.json)
         if world.main:
             checkpoint.save(ckpt_path, st)
+            timing.write(out, timings(step))  # after the checkpoint: a timing.json always matches one
 
     probe = HeldoutProbe(src, test_idx, cfg.data.crop, cfg.data.eval_views, o.batch_size) \
         if o.eval_every and world.main else None
-    heldout_rows = list(state.get("heldout", [])) if state is not None else []
-    clock = TrainClock(*(state.get("train_clock", (0.0, 0.0)) if state is not None else (0.0, 0.0)))
+    # rows of a checkpoint from before timing.json carry their times: the curve keeps its columns only
+    heldout_rows = [{k: r[k] for k in heldout.HEADER} for r in state.get("heldout", [])] if state is not None else []
+    prior = timing.continued(out, start, losses, state) if state is not None and world.main else \
+        {"train_wall_s": 0.0, "train_cpu_s": 0.0, "heldout": {}, "clock_from_step": start}
+    clock = TrainClock(prior["train_wall_s"], prior["train_cpu_s"])
+    times = dict(prior["heldout"])  # step -> the clock when the curve's row of that step was taken
+    here = timing.where(cfg.data.store) if world.main else {}
 
     def probe_at(step: int) -> None:  # the clock is stopped around it: evaluation is not training time
         wall, cpu = clock.stop()
         if probe is not None and not any(r["step"] == step for r in heldout_rows):
-            heldout_rows.append({"step": step, "wall_s": wall, "cpu_s": cpu, **probe(trainer.net, place.device)})
+            heldout_rows.append({"step": step, **probe(trainer.net, place.device)})
+            times[step] = {"wall_s": wall, "cpu_s": cpu}
         clock.start()
 
     step = start
@@ -500,15 +515,17 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
         probe_at(step)  # the last point of the curve (nothing new when eval_every divides iterations)
     clock.stop()
     save(step)
-    extra = {"it_per_s": (step - start) / elapsed if step > start and elapsed > 0 else None,
-             "parameters": count_parameters(trainer.net), "train_samples": int(len(train_idx)),
-             "test_samples": int(len(test_idx)), "done": step >= o.iterations, "resumed_from": resumed_from,
+    it_per_s = (step - start) / elapsed if step > start and elapsed > 0 else None
+    extra = {"parameters": count_parameters(trainer.net), "train_samples": int(len(train_idx)),
+             "test_samples": int(len(test_idx)), "done": step >= o.iterations,
              "device": str(place.device), "precision": place.precision, "world_size": world.size,
              "global_batch": trainer.global_batch}
-    extra["train_wall_s"], extra["train_cpu_s"] = clock.wall, clock.cpu
+    clocked = {"it_per_s": it_per_s, "train_wall_s": clock.wall, "train_cpu_s": clock.cpu,
+               "resumed_from": resumed_from}  # timing.KEYS
     if not world.main:
-        return {"step": step, **extra}
+        return {"step": step, **extra, **clocked}
     heldout.write(out / heldout.FILE, heldout_rows)
-    checkpoint.save(out / "model.pt", {"config": cfg.to_dict(), "model": trainer.net.state_dict(), "step": step,
-                                       "provenance": prov})
-    return _write_outputs(out, cfg, losses, extra)
+    checkpoint.save(out / "model.pt", {"config": runinfo.recorded_config(cfg), "model": trainer.net.state_dict(),
+                                       "step": step, "provenance": prov})
+    timing.write(out, timings(step, it_per_s))
+    return {**_write_outputs(out, cfg, losses, extra), **clocked}

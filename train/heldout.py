@@ -2,8 +2,10 @@
 
 Every ``eval_every`` steps (and before the first and after the last) the network is evaluated on a fixed subset of
 the held-out split, ``data.eval_views`` views spread evenly over it, centre-cropped: the same views for every run
-with the same data, split seed and store, whatever the training seed, loss or model. The clock counts training only:
-the time spent here is excluded, so two arms' curves compare error at equal training cost.
+with the same data, split seed and store, whatever the training seed, loss or model. heldout.csv holds each row's
+step and errors (a DVC plot: the same bytes on any machine); the training clock at each row goes to timing.json
+(train/timing.py, not hashed by DVC). The clock counts training only: the time spent here is excluded, so two
+arms' curves compare error at equal training cost.
 """
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ import torch
 
 from .evaluate import COLUMNS, metrics
 
-HEADER = ("step", "wall_s", "cpu_s", *COLUMNS)
+HEADER = ("step", *COLUMNS)
 FILE = "heldout.csv"
 
 

@@ -5,6 +5,10 @@ A run's config keeps ``data.store`` as the user spelled it (often relative to th
 directory with the store's path relative to the run directory, which holds from anywhere and when the project
 is moved as a whole. ``svtrain eval`` finds the store through it where it needs the store: for its held-out split,
 or for the baselines' means of a run from before ``svtrain fit`` recorded them with the model.
+
+Also what a run records of itself so that its files are the same bytes on any machine and checkout: its config less
+the machine's settings (:func:`recorded_config`), its code as the digest of what training can run
+(:func:`code_digest`, :func:`run_versions`), and the key a checkpoint must match to be continued (:func:`resume_key`).
 """
 from __future__ import annotations
 
@@ -33,17 +37,50 @@ def record(run_dir: str | os.PathLike, store: str | None) -> None:
     os.replace(tmp, run / RUN_FILE)
 
 
-#: the packages whose digest is the code half of :func:`resume_key` (one list with the recorded versions)
-CODE_PACKAGES = versions.CODE_PACKAGES
-#: sha256 of the source of :data:`CODE_PACKAGES` (svcore.versions: what stores and runs record as the code)
-code_digest = versions.code_digest
+#: the module whose import closure is a run's code (:func:`code_digest`): what ``svtrain fit`` can run to train
+CODE_OF = "train.fit"
+#: config keys a run does not record (config.yaml, the checkpoint's and the model's config): settings of the machine
+#: that change no result, read from the environment (SVGEN_WORKERS), so that they change no byte DVC hashes
+MACHINE_KEYS = (("data", "workers"),)
+
+
+def code_digest() -> str:
+    """sha256 of the training code: the source :data:`CODE_OF` can import (:func:`svcore.versions.closure_digest`),
+    the code half of :func:`resume_key` and what a run records as its code. A change elsewhere (the gallery,
+    ``svtrain predict``) is no other run; the package version and the commit are not part of it."""
+    return versions.closure_digest(CODE_OF)
+
+
+def run_versions() -> dict[str, str]:
+    """What a run records of the code that trained it (provenance.json, model.pt): the libraries' installed
+    versions and ``svgen`` as ``"code DIGEST"``, the digest of the training code (:func:`code_digest`), as stores
+    record theirs (:func:`svcore.versions.store_versions`): no package version, which names the commit."""
+    return versions.store_versions(CODE_OF)
+
+
+def recorded_config(cfg) -> dict:
+    """The config as a run records it: :meth:`Config.to_dict` less :data:`MACHINE_KEYS` (a recorded config reads
+    back with their defaults, and a rerun takes them from its own machine)."""
+    conf = cfg.to_dict()
+    for section, key in MACHINE_KEYS:
+        conf[section] = {k: v for k, v in conf[section].items() if k != key}
+    return conf
+
+
+def config_text(cfg) -> str:
+    """config.yaml: :func:`recorded_config` as a params file (``train:`` and every key but the machine's), which
+    ``svtrain fit --params`` reads back to this config."""
+    import yaml
+
+    return yaml.safe_dump({cfg.SECTION: recorded_config(cfg)}, sort_keys=False)
 
 
 def resume_key(cfg, data: dict) -> str:
     """What a checkpoint must have been trained from for ``svtrain fit --resume-if-unchanged`` to continue it:
     the resolved config (less the store's spelling and the loader's worker count, which do not change a step's
-    result, nor do the loader's memory budget and the checkpoint interval), the training data's identity (``data``: a store's kind, config hash and size, or the synthetic
-    source's settings; :func:`train.fit.provenance`) and :func:`code_digest`.
+    result, nor do the loader's memory budget and the checkpoint interval), the training data's identity (``data``:
+    a store's kind, config hash and size, or the synthetic source's settings; :func:`train.fit.provenance`) and
+    :func:`code_digest` (the training code: an edit to code training cannot run continues the checkpoint).
 
     DVC reruns the fit stage when its params, store or code change, and also when a killed run left no model:
     only the second case may continue the checkpoint it finds.
