@@ -113,7 +113,9 @@ def metadata(state: dict, source: Path, stride: int) -> dict[str, str]:
                    "(alpha = r^2); specular (B,3,H,W) linear F0 [0,1]",
         "stride": str(stride),
         "svgen_version_trained": str(versions.get("svgen", "unknown")),
-        "svgen_version_exported": svgen_version(),
+        # both as a run records its code (the training code's digest: equal when this code trained it), and the
+        # exporting install's package version
+        "svgen_version_exported": run_versions()["svgen"], "svgen_package_exported": svgen_version(),
         "network_format": str(state.get("network_format", 1)),
         "checkpoint_sha256": bundled_model.sha256(source),
         "checkpoint_step": str(state.get("step", "")),
