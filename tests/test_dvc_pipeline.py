@@ -145,14 +145,17 @@ def test_sigkill_during_a_stage_then_repro_gives_the_same_outputs(project, stage
 
     # `dvc repro STAGE`: the stage and what it depends on, not the stages after it (test_repro_runs_every_stage_
     # then_nothing covers those): rerunning every later stage after each kill took 2/3 of this test's time
-    proc = subprocess.Popen(["dvc", "repro", stage], cwd=project, env=ENV, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
+    log = open(project.parent / f"repro_{stage}.log", "w")  # said in the failure: why a stage never got under way
+    proc = subprocess.Popen(["dvc", "repro", stage], cwd=project, env=ENV, stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True)
     deadline = time.time() + 300
     while time.time() < deadline and not under_way() and proc.poll() is None:
         time.sleep(0.02)
     os.killpg(proc.pid, signal.SIGKILL)  # dvc, svgen and its dask workers: the whole session
     proc.wait()
-    assert under_way(), f"the {stage} stage never got under way"
+    log.close()
+    assert under_way(), (f"the {stage} stage never got under way (dvc exit {proc.returncode}); its output:\n"
+                         + (project.parent / f"repro_{stage}.log").read_text()[-3000:])
     final = {"sample": "data/variants.zarr", "blend": "data/blends.zarr", "render": "data/renders.zarr",
              "fit": "runs/train/model.pt"}[stage]
     assert not (project / final).exists(), f"{stage} had finished before the kill: the test proves nothing"
