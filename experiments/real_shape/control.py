@@ -209,7 +209,8 @@ def main(argv=None) -> None:
     pairs = []
     for name in runs:
         run = work / "runs" / name
-        fit = json.loads((run / "metrics.json").read_text())
+        fit = {**json.loads((run / "metrics.json").read_text()),  # timings: timing.json since 390b66e
+               **(json.loads((run / "timing.json").read_text()) if (run / "timing.json").is_file() else {})}
         r = {"fit_wall_s": fit.get("train_wall_s"), "fit_cpu_s": fit.get("train_cpu_s"), "train_views": table(evaluate(run, run / "eval_train", log, "--suite", "train")),
              "heldout": table(evaluate(run, run / "eval_heldout", log))}
         for i in range(len(folds)):
@@ -224,7 +225,8 @@ def main(argv=None) -> None:
     ctl = work / "runs" / "control"
     for name in a.net_arm:
         run = work / "runs" / name
-        fit = json.loads((run / "metrics.json").read_text())
+        fit = {**json.loads((run / "metrics.json").read_text()),  # timings: timing.json since 390b66e
+               **(json.loads((run / "timing.json").read_text()) if (run / "timing.json").is_file() else {})}
         r = {"model": yaml.safe_load((run / "config.yaml").read_text())["train"]["model"], "fit_wall_s": fit.get("train_wall_s"),
              "fit_cpu_s": fit.get("train_cpu_s"),
              "train_views": table(evaluate(run, run / "eval_train", log, "--suite", "train")),
