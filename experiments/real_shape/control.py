@@ -98,26 +98,31 @@ def store_materials(store: Path) -> list[tuple[str, ...]]:
     return RendersReader(str(store)).source_presets()
 
 
-def fit_all(a, work: Path, runs: dict[str, Path], log: Path) -> None:
-    """Train every arm side by side, one torch thread each (same threads for all: same arithmetic)."""
+def side_by_side(jobs: dict[str, list[str]], logs: Path, threads: int) -> None:
+    """Run ``svtrain fit`` commands at once, one log each (``logs/fit_<name>.log``), ``threads`` torch threads each;
+    a failure stops the experiment."""
     procs = []
-    for name, store in runs.items():
-        out = work / "runs" / name
-        if (out / "model.pt").is_file():
-            continue
-        cmd = ["svtrain", "fit", "--params", PARAMS, "--store", str(store), "--out", str(out), "--iterations",
-               str(a.steps), "--workers", "0", "--set", f"optim.threads={a.threads}", "--set", f"optim.lr={a.lr}",
-               *a.train_set]
-        f = open(work / f"fit_{name}.log", "a")
+    for name, cmd in jobs.items():
+        f = open(logs / f"fit_{name}.log", "a")
         f.write("$ " + " ".join(cmd) + "\n")
         f.flush()
         procs.append((name, subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT,
-                                             env={**os.environ, "SVGEN_NO_PROGRESS": "1"}), f))
+                                             env={**os.environ, "SVGEN_NO_PROGRESS": "1",
+                                                  "OMP_NUM_THREADS": str(threads)}), f))
     for name, p, f in procs:
         if p.wait():
-            raise SystemExit(f"fit of {name} failed; see {work / f'fit_{name}.log'}")
+            raise SystemExit(f"fit of {name} failed; see {logs / f'fit_{name}.log'}")
         f.close()
         print(f"fit {name} done", flush=True)
+
+
+def fit_all(a, work: Path, runs: dict[str, Path], log: Path) -> None:
+    """Train every arm side by side, one torch thread each (same threads for all: same arithmetic)."""
+    side_by_side({name: ["svtrain", "fit", "--params", PARAMS, "--store", str(store), "--out",
+                         str(work / "runs" / name), "--iterations", str(a.steps), "--workers", "0",
+                         "--set", f"optim.threads={a.threads}", "--set", f"optim.lr={a.lr}", *a.train_set]
+                  for name, store in runs.items() if not (work / "runs" / name / "model.pt").is_file()},
+                 work, a.threads)
 
 
 def evaluate(run: Path, out: Path, log: Path, *extra: str) -> dict:

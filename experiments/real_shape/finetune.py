@@ -37,7 +37,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).parent))
 
-from control import COLUMNS, PARAMS, evaluate, pooled_effect, table  # noqa: E402
+from control import COLUMNS, PARAMS, evaluate, pooled_effect, side_by_side, table  # noqa: E402
 
 #: arm -> the `svtrain fit` arguments it adds to the control's, and what it tests.
 ARMS = {
@@ -65,24 +65,9 @@ def fit_cmd(a, store: Path, out: Path, extra: list[str]) -> list[str]:
 
 
 def fit_arms(a, store: Path, out_dir: Path, arms: list[str]) -> None:
-    """Train the arms side by side, one torch thread each (every arm the same arithmetic)."""
-    procs = []
-    for name in arms:
-        out = out_dir / name
-        if (out / "model.pt").is_file():
-            continue
-        cmd = fit_cmd(a, store, out, ARMS[name][0])
-        f = open(out_dir / f"fit_{name}.log", "a")
-        f.write("$ " + " ".join(cmd) + "\n")
-        f.flush()
-        procs.append((name, subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT,
-                                             env={**os.environ, "SVGEN_NO_PROGRESS": "1",
-                                                  "OMP_NUM_THREADS": str(a.threads)}), f))
-    for name, p, f in procs:
-        if p.wait():
-            raise SystemExit(f"fit of {name} failed; see {out_dir / f'fit_{name}.log'}")
-        f.close()
-        print(f"fit {name} done", flush=True)
+    """Train the unfinished arms side by side, one torch thread each (every arm the same arithmetic)."""
+    side_by_side({n: fit_cmd(a, store, out_dir / n, ARMS[n][0]) for n in arms
+                  if not (out_dir / n / "model.pt").is_file()}, out_dir, a.threads)
 
 
 def sets_of(run: str, out: Path, refs: list[Path], log: Path, store: Path) -> dict:
