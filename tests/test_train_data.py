@@ -112,3 +112,57 @@ def test_split_drops_mixed_blends():
     train_names = {n for i in tr for n in s.src[i]}
     assert not test_names & train_names
     assert len(tr) + len(te) < len(s)
+
+
+class _PositionSource:
+    """A source whose photo *is* each pixel's view position (x, y, 0) by the CoordConv formula, computed here
+    independently of ``view_coords``; ``windowed`` adds the store reader's ``crop`` path (only the window read)."""
+
+    def __init__(self, base, windowed: bool):
+        self.base, self.res = base, base.size
+        h = w = base.size
+        x = (2.0 * np.arange(w) + 1.0) / w - 1.0
+        y = (2.0 * np.arange(h) + 1.0) / h - 1.0
+        self.pos = np.stack([np.tile(x, (h, 1)), np.tile(y[:, None], (1, w)), np.zeros((h, w))], -1).astype(np.float32)
+        if windowed:
+            self.crop = lambda i, y0, x0, c: (self.pos[y0:y0 + c, x0:x0 + c], _cut(self.base.maps(i), y0, x0, c))
+
+    def __len__(self):
+        return len(self.base)
+
+    def image(self, i):
+        return self.pos
+
+    def maps(self, i):
+        return self.base.maps(i)
+
+    def source(self, i):
+        return self.base.source(i)
+
+
+@pytest.mark.parametrize("windowed", [False, True])
+def test_view_coordinates_travel_with_the_pixels(src, windowed):
+    """PairDataset(coords=True) (model.coord_channels): each pixel's coordinates are its position in the whole view,
+    wherever the crop sat and however it was turned or flipped. The photo here is those positions, so after any
+    augmentation the coordinates must equal the photo's first two channels; a crop's own grid would not."""
+    pos_src = _PositionSource(src, windowed)
+    tr, _ = split_by_source(src, 0.3, 0)
+    ds = PairDataset(pos_src, tr, 24, seed=5, coords=True)
+    moved = 0
+    for pos in range(8):
+        img, maps, xy = ds[pos]
+        assert xy.shape == (2, 24, 24) and maps.shape == (10, 24, 24)
+        torch.testing.assert_close(xy, img[:2], rtol=0, atol=0)
+        moved += not torch.equal(xy[0, 0], torch.sort(xy[0, 0]).values)  # some items turned or flipped
+    assert moved > 0
+    _, _, xy = PairDataset(pos_src, [tr[0]], 24, train=False, coords=True)[0]
+    want = (2.0 * np.arange(8, 32) + 1.0) / 40 - 1.0  # the centre window of a 40-pixel view: columns 8..31
+    np.testing.assert_allclose(xy[0, 0].numpy(), want, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(xy[1, :, 0].numpy(), want, rtol=0, atol=1e-7)
+
+
+def _cut(svbrdf, y0, x0, c):
+    """A window of an SVBRDF's maps (what the store reader's crop returns)."""
+    from materials.maps import SVBRDF
+
+    return SVBRDF(**{k: getattr(svbrdf, k)[y0:y0 + c, x0:x0 + c] for k in ("normal", "diffuse", "specular", "roughness")})

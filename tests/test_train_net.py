@@ -220,3 +220,60 @@ def test_fit_init_grows_a_normal_decoder_from_a_one_decoder_run(tmp_path):
                                       "optim.init": str(tmp_path / "one.pt")})
     with pytest.raises(SvgenError, match="model.levels"):
         init_weights(other)
+
+
+@pytest.mark.parametrize("fullres_convs", [0, 1])
+def test_grown_coordinate_channels_start_as_the_network_they_grew_from(fullres_convs, tmp_path):
+    """``grow_coord_channels`` (``svtrain fit --init`` with model.coord_channels): the grown network's maps equal the
+    original's for any coordinates (zero weights on them), every photo-fed layer grew, and training can move the
+    new weights (they get gradients). ``init_weights`` grows them from a checkpoint and still refuses other changes."""
+    from svcore.errors import SvgenError
+    from train.checkpoint import FORMAT, init_weights
+    from train.config import resolve
+    from train.net import grow_coord_channels
+
+    small = {"model.base_width": 4, "model.max_width": 16, "model.levels": 3, "model.zero_output": False,
+             "model.fullres_convs": fullres_convs}
+    torch.manual_seed(0)
+    base = resolve("compact", None, small)
+    one = SVBRDFNet(base.model).eval()
+    torch.save({"format": FORMAT, "model": one.state_dict(), "config": base.to_dict()}, tmp_path / "one.pt")
+    grown_cfg = resolve("compact", None, {**small, "model.coord_channels": True,
+                                          "optim.init": str(tmp_path / "one.pt")})
+    rng_before = torch.get_rng_state()
+    weights = init_weights(grown_cfg)
+    assert torch.equal(torch.get_rng_state(), rng_before)  # building the shapes drew no random numbers
+    two = SVBRDFNet(grown_cfg.model).eval()
+    two.load_state_dict(weights)  # strict: every key present with its grown shape
+    grew = [k for k in weights if weights[k].shape != one.state_dict()[k].shape]
+    assert len(grew) == 2 + (1 if fullres_convs else 0)  # first encoder conv, output layer (+ the full-res conv)
+    x = torch.rand(2, 3, 32, 32, generator=torch.Generator().manual_seed(1))
+    xy = torch.rand(2, 2, 32, 32, generator=torch.Generator().manual_seed(2)) * 2 - 1
+    with torch.no_grad():
+        a = one(x)
+        torch.testing.assert_close(two(x), a, rtol=0, atol=1e-6)
+        torch.testing.assert_close(two(x, xy), a, rtol=0, atol=1e-6)
+    two.train()
+    two(x, xy).sum().backward()
+    assert two.enc[0].conv.weight.grad[:, 3:].abs().sum() > 0
+    with pytest.raises(ValueError, match="cannot grow"):
+        grow_coord_channels({"enc.0.conv.weight": torch.zeros(4, 3, 4, 4)},
+                            {"enc.0.conv.weight": torch.zeros(4, 6, 4, 4)})
+    other = resolve("compact", None, {**small, "model.coord_channels": True, "model.levels": 4,
+                                      "optim.init": str(tmp_path / "one.pt")})
+    with pytest.raises(SvgenError, match="model.levels"):
+        init_weights(other)
+
+
+def test_given_view_coordinates_replace_the_photos_own():
+    """``forward(image, coords)``: a training crop's view coordinates are what the network sees (not the crop's
+    own grid); None gives the whole photo's (inference)."""
+    from train.net import pixel_coords
+
+    torch.manual_seed(0)
+    net = SVBRDFNet(ModelConfig(base_width=4, max_width=16, levels=3, coord_channels=True)).eval()
+    x = torch.rand(1, 3, 16, 16)
+    with torch.no_grad():
+        own = net(x)
+        torch.testing.assert_close(net(x, pixel_coords(x)), own, rtol=0, atol=0)
+        assert (net(x, 0.5 * pixel_coords(x)) - own).abs().max() > 1e-5

@@ -19,8 +19,8 @@ import torch
 
 from svcore.errors import SvgenError
 
-from .config import Config, from_dict
-from .net import SVBRDFNet, grow_normal_decoder
+from .config import Config, ModelConfig, from_dict
+from .net import SVBRDFNet, grow_coord_channels, grow_normal_decoder
 
 FORMAT = "svtrain-checkpoint/1"
 #: what the weights mean to :class:`SVBRDFNet` (input mapping, layer layout, output decoding): recorded in every
@@ -126,6 +126,11 @@ def init_weights(cfg: Config) -> dict[str, torch.Tensor] | None:
     if ours.get("normal_decoder") and not theirs.get("normal_decoder") and not theirs.get("normal_head"):
         # a one-decoder model grows a normal decoder that starts as a copy of its decoder: the same maps at step 0
         weights, theirs = grow_normal_decoder(weights), {**theirs, "normal_decoder": True}
+    if ours.get("coord_channels") and not theirs.get("coord_channels"):
+        # a model without coordinates grows them with zero weights: the same maps at step 0
+        with torch.random.fork_rng(devices=[]):  # only the shapes are wanted: leave the run's random stream alone
+            target = SVBRDFNet(ModelConfig(**{**theirs, "coord_channels": True})).state_dict()
+        weights, theirs = grow_coord_channels(weights, target), {**theirs, "coord_channels": True}
     if {k: theirs.get(k, v) for k, v in ours.items()} != ours:
         differ = ", ".join(f"model.{k}={theirs.get(k)!r} (this run: {v!r})" for k, v in ours.items()
                            if theirs.get(k, v) != v)

@@ -49,11 +49,11 @@ class ModelConfig(ConfigModel):
     """how the network's two normal outputs become a normal: "unit" (tanh -> unit x, y, z reconstructed) or "slope"
     (the outputs are the surface slopes, n = normalize(-dx, -dy, 1): how blends treat normals)."""
     coord_channels: bool = False
-    """two input channels with each pixel's position (CoordConv): x along the columns and y along the rows, from -1
-    to 1 over the pixel centres, concatenated to the log-mapped photo before the first encoder convolution and
-    wherever the photo is concatenated again at full resolution. They span the photo the network is given: a
-    ``data.crop`` window in training (wherever it sat in its view; with ``data.crop_at=random`` a position then
-    does not locate the flash), the whole photo at inference."""
+    """two input channels with each pixel's position in its view (CoordConv): x along the columns and y along the
+    rows, from -1 to 1 over the view's pixel centres, concatenated to the log-mapped photo before the first encoder
+    convolution and wherever the photo is concatenated again at full resolution. A training crop carries the
+    positions it had in its view (turned and flipped with it), so they locate the flash as at inference, where the
+    photo is the whole view. Fine-tuning a model without them (``optim.init``) starts their weights at zero."""
     normal_decoder: bool = False
     """a second decoder, with the main decoder's structure and its own weights, fed by the shared encoder's skips
     and global vector, gives the normal's two outputs; the main decoder gives the other seven."""

@@ -245,11 +245,13 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
         :data:`SPEC_KEY`: {"model"|"ground_truth": {statistic: :func:`train.spec_stats.quartiles` over the views}}}
         (the specular-diffuse correlation and the specular chroma of the predicted and the true maps, side by side).
     """
-    ds = PairDataset(src, indices, crop, seed, train=False)
+    coords = bool(model is not None and getattr(model, "coord_channels", False))
+    ds = PairDataset(src, indices, crop, seed, train=False, coords=coords)
     device = torch.device(device)
     means = means.to(device)
     model = model.to(device) if model is not None else None
-    methods = {"model": lambda img: model(img), "input_as_diffuse": lambda img: input_as_diffuse(img, means),
+    xy: list[torch.Tensor | None] = [None]  # the batch's view coordinates (model.coord_channels), for the model only
+    methods = {"model": lambda img: model(img, xy[0]), "input_as_diffuse": lambda img: input_as_diffuse(img, means),
                "dataset_mean": lambda img: dataset_mean(img, means)}
     acc: dict[str, dict[str, list]] = {m: {c: [] for c in COLUMNS} for m in methods}
     spec: dict[str, dict[str, list]] = {m: {s: [] for s in STATS} for m in ("model", "ground_truth")}
@@ -264,6 +266,7 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
             items = [ds[k] for k in range(lo, min(lo + batch_size, len(ds)))]
             img = torch.stack([x[0] for x in items]).to(device)
             gt = torch.stack([x[1] for x in items]).to(device)
+            xy[0] = torch.stack([x[2] for x in items]).to(device) if coords else None
             for name, fn in methods.items():
                 pred = fn(img)
                 for c, v in metrics(pred, gt).items():

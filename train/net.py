@@ -134,12 +134,17 @@ class SVBRDFNet(nn.Module):
                 if self.normal_decoder is not None:
                     self.normal_decoder.out_conv.weight.zero_()
 
-    def forward(self, image: torch.Tensor) -> torch.Tensor:
-        """Args: image (B, 3, H, W) linear in [0, 1]. Returns (B, 10, H, W) packed maps."""
+    def forward(self, image: torch.Tensor, coords: torch.Tensor | None = None) -> torch.Tensor:
+        """(B, 3, H, W) photos linear in [0, 1] -> (B, 10, H, W) packed maps.
+
+        ``coords`` (B, 2, H, W): with ``coord_channels``, each pixel's position in its view (a training crop's,
+        ``data.PairDataset(coords=True)``); None: the photo is the whole view (:func:`pixel_coords`). Ignored without
+        ``coord_channels``.
+        """
         x0 = log_map(image)
         g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None  # the image's means, not the coords'
         if self.coord_channels:
-            x0 = torch.cat([x0, pixel_coords(image)], 1)
+            x0 = torch.cat([x0, pixel_coords(image) if coords is None else coords.to(x0.dtype)], 1)
         skips = []
         x = x0
         for layer in self.enc:
@@ -160,9 +165,9 @@ class SVBRDFNet(nn.Module):
 def pixel_coords(image: torch.Tensor) -> torch.Tensor:
     """The CoordConv channels (model.coord_channels): each pixel centre's position in the image given.
 
-    Built from the image's own shape, so the coordinates always span the photo the network sees: a training crop
-    at training (wherever the crop sat in its view), the whole photo at inference. Built with cumulative sums, not
-    from Python ints, so that an ONNX export keeps H and W dynamic.
+    Built from the image's own shape: the coordinates span the photo given, which at inference is the whole view
+    (training passes its crops' view positions instead: ``train.data.view_coords``, the same formula). Built with
+    cumulative sums, not from Python ints, so that an ONNX export keeps H and W dynamic.
 
     Args:
         image: (B, C, H, W), any values (only its shape, dtype and device are used).
@@ -292,6 +297,36 @@ def grow_normal_decoder(state: dict[str, torch.Tensor]) -> dict[str, torch.Tenso
             out["normal_decoder." + k] = v[:2].clone()
         else:
             out[k] = v.clone()
+    return out
+
+
+def grow_coord_channels(state: dict[str, torch.Tensor], target: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+    """A network's weights without ``model.coord_channels`` -> the same function with it (``svtrain fit --init``).
+
+    Every layer that sees the input photo (the first encoder convolution, and the full-resolution layers the photo
+    is concatenated to again) gets two more input channels, last, as :meth:`SVBRDFNet.forward` concatenates them;
+    their weights start at zero, so the grown network's maps equal the original's and a paired fine-tune starts
+    from the same model. Training then moves them (the coordinates are not zero).
+
+    Args:
+        state: a ``state_dict`` of :class:`SVBRDFNet` built with ``coord_channels=False``.
+        target: a ``state_dict`` (or any tensors of the right shapes) of the network with ``coord_channels=True``.
+
+    Returns:
+        ``state`` with each weight that is two input channels short padded with zeros.
+
+    Raises:
+        ValueError: a weight differs from the target's in any other way.
+    """
+    out: dict[str, torch.Tensor] = {}
+    for k, v in state.items():
+        want = target[k].shape if k in target else v.shape
+        if v.shape == want:
+            out[k] = v.clone()
+        elif v.dim() == 4 and want[1] == v.shape[1] + 2 and (want[0], *want[2:]) == (v.shape[0], *v.shape[2:]):
+            out[k] = torch.cat([v, v.new_zeros(v.shape[0], 2, *v.shape[2:])], 1)
+        else:
+            raise ValueError(f"{k}: {tuple(v.shape)} cannot grow into {tuple(want)} by two coordinate channels")
     return out
 
 

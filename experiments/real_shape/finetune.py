@@ -45,6 +45,9 @@ ARMS = {
     "mixed": (["--set", "optim.map_l1=0.1"],
               "the 2019 mixed loss: + 0.1 x L1 on the maps (direct supervision of a grey, flat specular where the "
               "render loss lets diffuse texture leak into it)"),
+    "coords": (["--set", "model.coord_channels=true"],
+               "pixel coordinates as two input channels (CoordConv, the 2019 follow-up), each crop's pixels at their "
+               "positions in the view, so they say where the flash is; grown from the bundled model with zero weights"),
     "rmse_late": (["--set", "optim.normal_late_loss=rmse", "--set", "optim.normal_late_from=0.3"],
                   "the normal term as each sample's RMSE from 30 % of the run on: false relief costs as the "
                   "evaluation counts it"),
