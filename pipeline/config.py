@@ -169,6 +169,8 @@ class StressConfig(StageConfig):
 #: test holds these names to its LIGHT_MODELS and SAMPLERS, so the config can be read without loading mitsuba).
 LightModel = Literal["point", "sphere"]
 Sampler = Literal["centre", "stratified", "independent"]
+#: the Mitsuba variants svgen renders in (pipeline.mi_env.VARIANTS; a test holds them equal)
+MitsubaVariant = Literal["llvm_ad_rgb", "cuda_ad_rgb"]
 
 
 class RenderConfig(StageConfig):
@@ -198,6 +200,11 @@ class RenderConfig(StageConfig):
     chunk: int = Field(64, ge=1)
     """SVBRDFs per task: one dask task renders chunk * views images and writes one zarr shard per array (the
     store's objects, the resume unit; 64: <= 200 objects per 10,000 views, docs/CODECS.md)."""
+    variant: MitsubaVariant = "llvm_ad_rgb"
+    """Mitsuba variant that renders: llvm_ad_rgb (the CPU) or cuda_ad_rgb (an NVIDIA GPU; refused where drjit finds
+    no CUDA driver). The same scene and BSDF, named in the store's attributes; left out of the recorded config at the
+    default (the same bytes as before the key), so a cuda_ad_rgb store has a config hash of its own: CUDA's
+    arithmetic need not match LLVM's bit for bit (docs/GPU.md)."""
 
     #: the default zoom range (pipeline.render.views.ZOOM_MIN, ZOOM_MAX; a test holds them equal)
     DEFAULT_ZOOM: ClassVar[tuple[float, float]] = (0.7, 1.4)
@@ -213,7 +220,8 @@ class RenderConfig(StageConfig):
 
     def dropped_keys(self) -> tuple[str, ...]:
         """Keys left out of the recorded config because they are at their default (same bytes as before)."""
-        return ("zoom",) if tuple(self.zoom) == self.DEFAULT_ZOOM else ()
+        return (("zoom",) if tuple(self.zoom) == self.DEFAULT_ZOOM else ()) + \
+            (("variant",) if self.variant == "llvm_ad_rgb" else ())
 
 
 #: the importer's layouts (pipeline.importer.layouts.LAYOUTS, a test holds them equal) and "auto"

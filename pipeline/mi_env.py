@@ -7,12 +7,17 @@ refuses scalar variants outright.
 from __future__ import annotations
 
 import os
+import sys
 
 from svcore.errors import SvgenError
 
 from .llvm import ensure_llvm
 
 DEFAULT_VARIANT = "llvm_ad_rgb"
+#: the variants ``svgen render --variant`` offers (pipeline.config.MitsubaVariant; a test holds them equal)
+VARIANTS = ("llvm_ad_rgb", "cuda_ad_rgb")
+#: the environment variable that names the variant of a process (read when mitsuba is first loaded)
+VARIANT_ENV = "SVGEN_MI_VARIANT"
 
 
 class MitsubaUnavailable(SvgenError, RuntimeError):
@@ -28,7 +33,7 @@ def load_mitsuba(variant: str | None = None):
     Raises:
         MitsubaUnavailable: no libLLVM >= 16, or a scalar/unknown variant was asked for.
     """
-    variant = variant or os.environ.get("SVGEN_MI_VARIANT", DEFAULT_VARIANT)
+    variant = variant or os.environ.get(VARIANT_ENV, DEFAULT_VARIANT)
     if not (variant.startswith("llvm_ad_") or variant.startswith("cuda_ad_")):
         raise MitsubaUnavailable(f"variant {variant!r} is not supported: svgen renders only in llvm_ad_* or cuda_ad_* "
                                  "(a Python BSDF runs per ray in Python in scalar variants)")
@@ -37,6 +42,8 @@ def load_mitsuba(variant: str | None = None):
             ensure_llvm()
         except RuntimeError as e:
             raise MitsubaUnavailable(str(e)) from None
+    else:
+        _require_cuda(variant)
     import mitsuba as mi
 
     if mi.variant() != variant:
@@ -44,6 +51,38 @@ def load_mitsuba(variant: str | None = None):
             mi.set_variant(variant)
         except Exception as e:  # mitsuba raises ImportError/RuntimeError variants
             raise MitsubaUnavailable(f"cannot use Mitsuba variant {variant!r}: {e}") from None
+    return mi
+
+
+def _require_cuda(variant: str) -> None:
+    """Refuse a ``cuda_ad_*`` variant, in one line, where drjit finds no CUDA driver or GPU (before mitsuba tries
+    it: its own error names a drjit internal, ``jit_init_thread_state()``)."""
+    import drjit as dr
+
+    if not dr.has_backend(dr.JitBackend.CUDA):
+        raise MitsubaUnavailable(f"variant {variant!r} needs an NVIDIA GPU, and drjit finds no CUDA driver or device "
+                                 f"on this machine (libcuda.so); render with --variant {DEFAULT_VARIANT} here")
+
+
+def use_variant(variant: str):
+    """Make ``variant`` the variant this process renders in, and return ``mitsuba`` with it set.
+
+    The svgen BSDF (:mod:`pipeline.render.bsdf`) is a class of the variant that was current when it was first
+    imported, so a process renders in one variant: the first call (or ``SVGEN_MI_VARIANT``) decides it, through the
+    environment, which the render stage's worker processes inherit.
+
+    Raises:
+        MitsubaUnavailable: the variant cannot run here (no CUDA, no libLLVM), or this process already renders in
+            another variant.
+    """
+    if variant.startswith("cuda_ad_"):  # the machine's reason first, before any state changes
+        _require_cuda(variant)
+    bound = getattr(sys.modules.get("pipeline.render.bsdf"), "VARIANT", None)
+    if bound is not None and bound != variant:
+        raise MitsubaUnavailable(f"this process already renders in {bound!r} (the svgen BSDF is bound to the variant "
+                                 f"it was loaded in): render in {variant!r} from a new process")
+    mi = load_mitsuba(variant)
+    os.environ[VARIANT_ENV] = variant
     return mi
 
 

@@ -40,6 +40,9 @@ from ..mi_env import load_mitsuba
 mi = load_mitsuba()
 import drjit as dr  # noqa: E402  (after load_mitsuba: drjit must see the libLLVM path first)
 
+#: the variant this module's BSDF class belongs to (the current one at import: pipeline.mi_env.use_variant)
+VARIANT = mi.variant()
+
 PLUGIN_NAME = "svgen_ggx"
 #: channel planes of the texture, in the packed order: normal xyz, diffuse rgb, specular rgb, roughness.
 CHANNELS = CHANNEL_NAMES

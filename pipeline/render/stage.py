@@ -64,6 +64,9 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
 def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], cfg: RenderConfig, n: int) -> int:
     """Worker: render the SVBRDFs of chunk c and write the whole chunk. Returns the number of views."""
     from storage.svbrdf_store import SVBRDFInputs, decode_maps
+    from ..mi_env import use_variant
+
+    use_variant(cfg.variant)  # before the scene's modules load: a worker process renders in the run's variant
     from ..mi_env import dr
 
     dr.set_thread_count(max(1, threads))
@@ -101,8 +104,12 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
 
     Raises:
         StoreError: an input missing or of the wrong kind.
+        MitsubaUnavailable: ``cfg.variant`` cannot render here (e.g. cuda_ad_rgb without CUDA).
     """
     from storage.svbrdf_store import SVBRDFInputs
+    from ..mi_env import use_variant
+
+    use_variant(cfg.variant)  # refused before anything is opened or written; the workers inherit it
     from .scene import mi, scene_constants, scene_description
     from .store import KIND, array_specs
     from .views import R_MAX, R_MIN
