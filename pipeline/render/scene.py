@@ -16,9 +16,11 @@ Per view only two things change, through ``mi.traverse`` + ``params.update()``: 
 and the light's position (or the sphere's transform). Both are kernel inputs, not literals, so the render
 kernel is compiled once per scene and reused (``tests/test_render_scene.py`` checks the kernel history).
 
-Integrator: ``direct``. A point light is a delta light, reachable only by emitter sampling, so BSDF samples
-(bsdf_samples) would be wasted rays: 1 emitter sample, 0 BSDF samples. A small sphere uses MIS with one of
-each (BSDF sampling wins for lobes narrower than the sphere's ~0.5 degrees).
+Integrator: for the point flash, ``svgen_plane_flash`` (:mod:`pipeline.render.integrator`): what Mitsuba's
+``direct`` computes with 1 emitter sample and 0 BSDF samples (a point light is a delta light, reachable only by
+emitter sampling), with the plane's own intersection and no shadow ray (a plane lit from its front cannot shadow
+itself). A small sphere uses ``direct`` with MIS, one sample of each (BSDF sampling wins for lobes narrower than
+the sphere's ~0.5 degrees).
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ from materials.capture import CAMERA_DISTANCE, FLASH_INTENSITY, FOV_DEG, PLANE_S
 from materials.maps import SVBRDF
 
 from . import bsdf as _bsdf
+from . import integrator as _integrator
 from .views import ViewParams, planes_of, transform_planes
 
 mi = _bsdf.mi
@@ -46,16 +49,25 @@ def scene_constants() -> dict:
             "flash_intensity_w_sr": FLASH_INTENSITY, "sphere_radius": SPHERE_RADIUS}
 
 
+def integrator_name(light_model: str) -> str:
+    """The integrator that renders a light model: the plane's own (:mod:`pipeline.render.integrator`) for the point
+    flash, Mitsuba's ``direct`` for the sphere (the render stage records it in its config: a partial store of
+    another integrator, e.g. a version-3 store's ``direct``, is not resumed into a mix of both)."""
+    return _integrator.PLUGIN_NAME if light_model == "point" else "direct"
+
+
 def scene_description(light_model: str, spp: int, sampler: str) -> str:
     """The capture scene in words and numbers, for a reader without svgen (a renders store's attributes and its
     dataset card); every number comes from :mod:`materials.capture`."""
     light = ("a point light" if light_model == "point" else f"a sphere light of radius {SPHERE_RADIUS}")
+    integ = ("the plane's own intersection, no shadow ray: a plane lit from its front cannot shadow itself"
+             if light_model == "point" else "Mitsuba integrator 'direct'")
     return (f"A {PLANE_SIZE:g} x {PLANE_SIZE:g} material plane at z = 0, centred at the origin, fills the image of a "
             f"pinhole camera at (0, 0, {CAMERA_DISTANCE:.6f}) looking down -z with up +y and a {FOV_DEG:g} degree "
             f"field of view across the width. The flash is {light} of intensity pi D^2 = {FLASH_INTENSITY:.6f} W/sr "
             f"in the plane z = D at the view's offset (light_x, light_y) from the camera. The BRDF is Cook-Torrance "
             f"GGX (alpha = roughness^2, Schlick-Smith G with k = alpha/2, spherical-Gaussian Schlick Fresnel, "
-            f"diffuse d (1 - s) / pi). Only direct light (Mitsuba integrator 'direct'), {spp} sample(s) per pixel, "
+            f"diffuse d (1 - s) / pi). Only direct light ({integ}), {spp} sample(s) per pixel, "
             f"sampler '{sampler}'; the output is linear radiance clipped to [0, 1] (a gamma-inverted LDR photo).")
 
 
@@ -80,7 +92,8 @@ def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "i
                     else {"type": "stratified", "sample_count": spp, "jitter": sampler == "stratified"})
     d = {
         "type": "scene",
-        "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0 if light_model == "point" else 1},
+        "integrator": ({"type": integrator_name(light_model)} if light_model == "point"
+                       else {"type": integrator_name(light_model), "emitter_samples": 1, "bsdf_samples": 1}),
         "sensor": {
             "type": "perspective",
             "fov": FOV_DEG,
