@@ -110,6 +110,7 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
     from ..mi_env import use_variant
 
     use_variant(cfg.variant)  # refused before anything is opened or written; the workers inherit it
+    from . import scene as scene_module
     from .scene import mi, scene_constants, scene_description
     from .store import KIND, array_specs
     from .views import R_MAX, R_MIN
@@ -135,7 +136,8 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
     # the inputs' identity (kind, size, config hash: not how their path is spelled) is part of the config:
     # resuming against different inputs must be refused, with any spelling of the same inputs accepted
     config = {**{k: v for k, v in cfg.as_dict().items() if k not in cfg.dropped_keys()},
-              "inputs": [{k: v for k, v in d.items() if k != "path"} for d in src.describe()]}
+              "inputs": [{k: v for k, v in d.items() if k != "path"} for d in src.describe()],
+              "integrator": scene_module.integrator_name(cfg.light)}
     return Stage(KIND, n, cfg.chunk, array_specs(cfg.views, cfg.res, src.size), config, attrs, _chunk_task,
                  dict(inputs=_paths(inputs), cfg=cfg, n=n), desc="render", unit="view", units_per_sample=cfg.views,
                  inputs=_paths(inputs), finish=record_split)
