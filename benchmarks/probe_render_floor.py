@@ -8,11 +8,12 @@ the same scene with integrators that stop early (registered here, used nowhere e
 * ``camera``: camera rays and the film only (the integrator returns the ray's direction);
 * ``+ intersect``: adds the scene's ray intersection (``scene.ray_intersect``: Embree on the LLVM variants);
 * ``+ light``: adds the flash's direction sample (no shadow ray);
-* ``direct``: the stage's integrator (Mitsuba's ``direct``, a shadow ray and the svgen_ggx BSDF);
-* ``shape intersect``: what ``direct`` computes for this scene with the plane intersected by Mitsuba's own
-  rectangle code (``shape.ray_intersect_preliminary``) instead of Embree and no shadow ray (a single plane lit
-  from its front cannot shadow itself). Not bit-identical to ``direct``: its agreement is measured over views of
-  the library (float pixels that differ, 8-bit codes that differ per million).
+* ``direct``: the stage's integrator before #42 (Mitsuba's ``direct``, a shadow ray and the svgen_ggx BSDF);
+* ``shape intersect``: the stage's integrator since #42 (``svgen_plane_flash``, pipeline/render/integrator.py):
+  what ``direct`` computes for this scene with the plane intersected by Mitsuba's own rectangle code
+  (``shape.ray_intersect_preliminary``) instead of Embree and no shadow ray (a single plane lit from its front
+  cannot shadow itself). Not bit-identical to ``direct``: its agreement is measured over views of the library
+  (float pixels that differ, 8-bit codes that differ per million).
 
 Beside them: ``transform_planes`` (the view's texture transform) at 1 and 2 subsamples per axis (2 when the view
 minifies: zoom above base/res, about half the views at the default zoom range) and the drjit 8-bit encoding.
@@ -33,13 +34,14 @@ from harness import RESULTS, parser, write_results
 
 #: integrators of the probe, in order: name -> what it adds
 STEPS = {"camera": "camera rays and film", "intersect": "+ scene.ray_intersect (Embree)",
-         "light": "+ the flash's direction sample", "direct": "the stage's integrator (direct, svgen_ggx)",
-         "shape_intersect": "direct's result via the rectangle's own intersection, no shadow ray"}
+         "light": "+ the flash's direction sample", "direct": "Mitsuba's direct with svgen_ggx (the stage's until #42)",
+         "shape_intersect": "direct's result via the rectangle's own intersection, no shadow ray (the stage's "
+                            "svgen_plane_flash since #42)"}
 
 
 def register_probe_integrators():
     """Register the probe's integrators (``svgen_probe_<step>``); returns the mitsuba module."""
-    from pipeline.mi_env import dr, mi
+    from pipeline.mi_env import mi
 
     class Partial(mi.SamplingIntegrator):
         """camera / intersect / light: the render call stopped after that step."""
@@ -63,28 +65,7 @@ def register_probe_integrators():
         def to_string(self):
             return f"Partial[{self.step}]"
 
-    class ShapeIntersect(mi.SamplingIntegrator):
-        """direct's emitter sample for a point light, the plane intersected by its own shape code."""
-
-        def sample(self, scene, sampler, ray, medium=None, active=True):
-            r = mi.Ray3f(ray)
-            pi = scene.shapes()[0].ray_intersect_preliminary(r, 0, active)
-            si = pi.compute_surface_interaction(r, mi.RayFlags.All, active)
-            valid = si.is_valid()
-            act = mi.Bool(active) & valid
-            ds, em = scene.sample_emitter_direction(si, sampler.next_2d(act), False, act)
-            act &= ds.pdf != 0.0
-            val = si.bsdf(ray).eval(mi.BSDFContext(), si, si.to_local(ds.d), act)
-            return mi.Spectrum(dr.select(act, val * em, 0.0)), valid, []
-
-        def aov_names(self):
-            return []
-
-        def to_string(self):
-            return "ShapeIntersect"
-
     mi.register_integrator("svgen_probe_partial", lambda p: Partial(p))
-    mi.register_integrator("svgen_probe_shape", lambda p: ShapeIntersect(p))
     return mi
 
 
@@ -93,10 +74,10 @@ def probe_scene(res: int, step: str):
     from pipeline.render.scene import FlashScene, scene_dict
 
     mi = register_probe_integrators()
-    scene = FlashScene(res, 1, "point", "centre")
-    if step != "direct":
+    scene = FlashScene(res, 1, "point", "centre")  # shape_intersect: the stage's own integrator since #42
+    if step != "shape_intersect":
         d = scene_dict(res, 1, "point", "centre")
-        d["integrator"] = ({"type": "svgen_probe_shape"} if step == "shape_intersect"
+        d["integrator"] = ({"type": "direct", "emitter_samples": 1, "bsdf_samples": 0} if step == "direct"
                            else {"type": "svgen_probe_partial", "step": step})
         scene.scene = mi.load_dict(d)
         scene.params = mi.traverse(scene.scene)
@@ -176,8 +157,9 @@ def measure(res: int, calls: int, rounds: int) -> dict:
     out["parts_ms"] = {"camera_and_film": r["camera"], "intersect": round(r["intersect"] - r["camera"], 3),
                        "light_sample": round(r["light"] - r["intersect"], 3),
                        "shadow_ray_bsdf_and_rest": round(r["direct"] - r["light"], 3)}
-    out["floor_ms_per_view"] = round(r["direct"] + (t["ss1"] + t["ss2"]) / 2 + out["encode_ms"], 3)
-    out["floor_note"] = ("direct render + the mean of the two transforms (about half the views minify) + encoding: "
+    out["floor_ms_per_view"] = round(r["shape_intersect"] + (t["ss1"] + t["ss2"]) / 2 + out["encode_ms"], 3)
+    out["floor_note"] = ("the stage's render (shape_intersect since #42) + the mean of the two transforms (about half "
+                         "the views minify) + encoding: "
                          "the stage's calls per view before decoding inputs and writing the store")
     return out
 
