@@ -2,12 +2,11 @@
 lazily, so ``svgen --help`` does not import mitsuba or dask."""
 from __future__ import annotations
 
-import importlib
 import sys
 
 import click
 
-from svcore.cli import run_cli, version_option
+from svcore.cli import LazyGroup, run_cli, version_option
 from svcore.log import configure
 
 #: command name -> "module:attribute" (a registry instead of an if-chain; add a line to add a command).
@@ -26,28 +25,7 @@ COMMANDS: dict[str, str] = {
 }
 
 
-class LazyGroup(click.Group):
-    def list_commands(self, ctx):
-        return [name for name in COMMANDS if _importable(name)]
-
-    def get_command(self, ctx, name):
-        if name not in COMMANDS:
-            return None
-        mod, attr = COMMANDS[name].split(":")
-        try:
-            return getattr(importlib.import_module(mod), attr)
-        except ModuleNotFoundError as e:
-            if e.name == mod:
-                return None
-            raise
-
-
-def _importable(name: str) -> bool:
-    mod = COMMANDS[name].split(":")[0]
-    return importlib.util.find_spec(mod) is not None
-
-
-@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=LazyGroup, registry=COMMANDS, context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("-v", "--verbose", is_flag=True, help="Debug logging.")
 @version_option("svgen")
 def cli(verbose: bool) -> None:

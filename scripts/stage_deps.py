@@ -8,7 +8,7 @@ The import graph is read from the source (:mod:`svcore.codegraph`, which also na
 by importing. Entry points of a command:
 
 - ``svgen SUB``: pipeline/cli.py and the module of ``pipeline.cli.COMMANDS[SUB]``;
-- ``svtrain SUB``: train/cli.py's top-level imports and the imports inside the function of SUB;
+- ``svtrain SUB``: train/cli.py and the module of ``train.cli.COMMANDS[SUB]``;
 - ``python3 path/script.py``: the script (itself a dep) and its imports.
 
 A dep covers a file when it is the file or a folder above it. tests/test_dvc_hygiene.py fails when one is missed.
@@ -25,14 +25,6 @@ import yaml
 from svcore.codegraph import PACKAGES, ROOT, closure, imported_names  # noqa: F401 (PACKAGES: named above)
 
 
-def _function_scope(path: Path, fn_names: tuple[str, ...]) -> ast.Module:
-    """A module's top-level statements except functions/classes, plus the function(s) named ``fn_names``."""
-    tree = ast.parse(path.read_text(), str(path))
-    body = [n for n in tree.body if not isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))
-            or n.name in fn_names]
-    return ast.Module(body=body, type_ignores=[])
-
-
 def command_entries(cmd: str, root: Path = ROOT) -> tuple[dict[str, ast.AST | None], set[Path]]:
     """Entry modules (name -> AST scope or None) and entry script files of a stage command (``&&`` chains)."""
     entries: dict[str, ast.AST | None] = {}
@@ -47,9 +39,10 @@ def command_entries(cmd: str, root: Path = ROOT) -> tuple[dict[str, ast.AST | No
             entries.setdefault("pipeline.cli", None)
             entries[COMMANDS[words[1]].split(":")[0]] = None
         elif words[0] == "svtrain" and len(words) > 1:
-            sub = words[1]
-            path = root / "train" / "cli.py"
-            entries["train.cli"] = _function_scope(path, (sub, sub + "_"))
+            from train.cli import COMMANDS as SVTRAIN_COMMANDS
+
+            entries.setdefault("train.cli", None)
+            entries[SVTRAIN_COMMANDS[words[1]].split(":")[0]] = None
         elif words[0].startswith("python") and len(words) > 1 and words[1].endswith(".py"):
             script = root / words[1]
             scripts.add(script)

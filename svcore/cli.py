@@ -1,4 +1,5 @@
-"""What both command lines (``svgen``, ``svtrain``) share: the one-line error funnel and ``--version``.
+"""What both command lines (``svgen``, ``svtrain``) share: the one-line error funnel, ``--version`` and the lazy
+command registry.
 
 :func:`run_cli` is the only place that turns exceptions into exit codes: user errors (the
 :class:`~svcore.errors.SvgenError` family and click's usage errors) print one line and exit 2, environment
@@ -8,6 +9,8 @@ errors (full disk, permissions) one line and exit 1, anything else one line nami
 from __future__ import annotations
 
 import errno
+import importlib
+import importlib.util
 import os
 import sys
 
@@ -54,6 +57,36 @@ def version_option(prog: str):
     metadata (click.version_option)."""
     return click.version_option(package_name="svgen", prog_name=prog, message=_VersionMessage("%(prog)s %(version)s"),
                                 help="Print the package version (with the source digest and git describe) and exit.")
+
+
+class LazyGroup(click.Group):
+    """A click group whose commands live one per module, named by a registry and imported only when run or listed
+    in help, so that ``PROG --help`` imports no stage (``svgen``: mitsuba and dask; ``svtrain``: torch).
+
+    The registry maps command name -> ``"module:attribute"`` (``@click.group(cls=LazyGroup, registry=COMMANDS)``);
+    help lists the commands in its order. A command whose module is not installed is left out.
+    """
+
+    def __init__(self, *args, registry: dict[str, str], **kwargs):
+        super().__init__(*args, **kwargs)
+        self.registry = registry
+
+    def list_commands(self, ctx):
+        return [name for name in self.registry if self._importable(name)]
+
+    def get_command(self, ctx, name):
+        if name not in self.registry:
+            return None
+        mod, attr = self.registry[name].split(":")
+        try:
+            return getattr(importlib.import_module(mod), attr)
+        except ModuleNotFoundError as e:
+            if e.name == mod:
+                return None
+            raise
+
+    def _importable(self, name: str) -> bool:
+        return importlib.util.find_spec(self.registry[name].split(":")[0]) is not None
 
 
 def force_option(what: str = "outputs"):

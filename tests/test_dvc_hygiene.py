@@ -50,7 +50,8 @@ def test_the_import_graph_sees_lazy_and_registry_imports():
     assert {"pipeline/commands/sample.py", "pipeline/sample.py", "pipeline/sample_from.py", "svcore/seeds.py",
             "materials/registry.py", "materials/classes/wood.py"} <= sample, sorted(sample)
     evaluate = {str(p.relative_to(REPO)) for p in stage_deps.stage_files(STAGES["eval"]["cmd"])}
-    assert "train/evaluate.py" in evaluate and "train/fit.py" not in evaluate  # only `eval`'s function of the CLI
+    assert {"train/cli.py", "train/commands/eval.py", "train/evaluate.py"} <= evaluate, sorted(evaluate)
+    assert "train/fit.py" not in evaluate and "train/commands/fit.py" not in evaluate  # only `eval`'s module
 
 
 def test_the_fast_import_reader_sees_what_a_whole_parse_sees_in_every_module(tmp_path):
