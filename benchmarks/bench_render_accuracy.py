@@ -22,7 +22,7 @@ Beside the stage's code, two minifications through a prefiltered pyramid of the 
     python3 benchmarks/bench_render_accuracy.py --before <commit>   # -> results/render_accuracy.json
 
 ``--before`` renders the candidates of that commit too, in a ``git worktree`` at /tmp (the same script run there as
-a subprocess with the worktree first on ``sys.path``), against the same references.
+a subprocess whose PYTHONPATH starts with the worktree), against the same references.
 """
 from __future__ import annotations
 
