@@ -111,9 +111,16 @@ def measured_code(root: Path = ROOT, script: str | Path | None = None, code: Ite
     return {k: out[k] for k in sorted(out) if out[k] is not None}
 
 
-def changed_code(recorded: dict[str, str], root: Path = ROOT) -> list[str]:
-    """The keys of a recorded code digest whose code differs on the checkout at ``root`` (or is gone)."""
-    return [k for k, v in sorted(recorded.items()) if digest_of(k, root) != v]
+def changed_code(recorded: dict[str, str], root: Path = ROOT, cache: dict | None = None) -> list[str]:
+    """The keys of a recorded code digest whose code differs on the checkout at ``root`` (or is gone).
+
+    ``cache`` (key -> digest at ``root``), when given, keeps the digests computed for the next call: a survey of
+    many files digests each package once."""
+    cache = {} if cache is None else cache
+    for k in recorded:
+        if k not in cache:
+            cache[k] = digest_of(k, root)
+    return [k for k, v in sorted(recorded.items()) if cache[k] != v]
 
 
 def recorded_digests(results: dict) -> dict[str, dict[str, str]]:
@@ -137,12 +144,13 @@ class Freshness:
     changed: list[str]
 
 
-def freshness(results: dict, root: Path = ROOT) -> Freshness:
-    """Whether the code a results file measured is still the code at ``root``."""
+def freshness(results: dict, root: Path = ROOT, cache: dict | None = None) -> Freshness:
+    """Whether the code a results file measured is still the code at ``root`` (``cache``: :func:`changed_code`)."""
     digests = recorded_digests(results)
     if not digests:
         return Freshness("unknown", [])
-    changed = [f"{entry}: {k}" if entry else k for entry, rec in digests.items() for k in changed_code(rec, root)]
+    changed = [f"{entry}: {k}" if entry else k for entry, rec in digests.items()
+               for k in changed_code(rec, root, cache)]
     return Freshness("stale" if changed else "fresh", changed)
 
 # -- regressions ----------------------------------------------------------------------------------------------

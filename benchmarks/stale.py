@@ -10,7 +10,12 @@ says why that scope). This script recomputes each digest on this checkout:
 
 For each file it lists its top-level figures and the documents that quote it (README.md, docs/*.md).
 
-Usage: python3 benchmarks/stale.py [--all] [--check] [--results DIR]
+``--quoted`` looks at the quoted files only, and at each quote (benchmarks/quotes.py): a quote of a stale or
+unknown file must give the date and commit of the measurement (``2026-11-26, commit 3f32302``), so that it says
+which code its figures belong to. With ``--check`` it exits 1 when one does not (tests/test_stale.py runs this on
+the repository, so the README's test command fails on it).
+
+Usage: python3 benchmarks/stale.py [--all] [--check] [--quoted] [--results DIR] [--root DIR]
 """
 from __future__ import annotations
 
@@ -18,6 +23,7 @@ import json
 from pathlib import Path
 
 import freshness
+import quotes
 
 from harness import RESULTS, ROOT, parser
 
@@ -36,45 +42,71 @@ def headline(results: dict, shown: int = SHOWN) -> str:
     return ", ".join(items) if items else "(no top-level figures)"
 
 
-def quoted_in(name: str, root: Path = ROOT) -> list[str]:
-    """The documents (README.md, docs/*.md) that name the results file ``name``."""
-    docs = [root / "README.md", *sorted((root / "docs").glob("*.md"))]
-    return [str(d.relative_to(root)) for d in docs if d.is_file() and name in d.read_text()]
+def quoted_in(name: str, root: Path = ROOT, read=None) -> list[str]:
+    """The documents (README.md, docs/*.md) that quote the results file ``name`` (:func:`quotes.quotes`)."""
+    return list(dict.fromkeys(q.doc for q in quotes.quotes(name, root, read)))
 
 
 def survey(results_dir: Path = RESULTS, root: Path = ROOT) -> list[tuple[Path, freshness.Freshness, dict]]:
     """(path, freshness, results) of every results JSON under ``results_dir``, in path order."""
-    out = []
+    out, cache = [], {}
     for p in sorted(results_dir.rglob("*.json")):
         try:
             data = json.loads(p.read_text())
         except ValueError:
             continue
         if isinstance(data, dict):
-            out.append((p, freshness.freshness(data, root), data))
+            out.append((p, freshness.freshness(data, root, cache), data))
     return out
 
 
 def main(argv=None) -> int:
     ap = parser(__doc__, note=False)
     ap.add_argument("--all", action="store_true", help="list the fresh results files too")
-    ap.add_argument("--check", action="store_true", help="exit 1 when a results file is stale")
-    ap.add_argument("--results", default=str(RESULTS), help="the results folder (default benchmarks/results)")
+    ap.add_argument("--check", action="store_true",
+                    help="exit 1 when a results file is stale (with --quoted: when a quote of a stale or unknown "
+                         "file gives no date and commit)")
+    ap.add_argument("--quoted", action="store_true",
+                    help="only the files README.md or docs/*.md quote, with each quote and whether it is dated")
+    ap.add_argument("--results", default=None, help="the results folder (default ROOT/benchmarks/results)")
+    ap.add_argument("--root", default=str(ROOT),
+                    help="the repository whose code and pages are read (default: this one)")
     a = ap.parse_args(argv)
-    rows = survey(Path(a.results))
+    root = Path(a.root).resolve()
+    results = Path(a.results) if a.results else root / "benchmarks" / "results"
+    rows = survey(results, root)
+    read = quotes.page_blocks(root)
     counts = {"stale": 0, "unknown": 0, "fresh": 0}
+    undated = 0
     for path, f, data in rows:
+        name = path.relative_to(results).as_posix()
+        found = quotes.quotes(name, root, read) if a.quoted else []
+        if a.quoted and not found:
+            continue
         counts[f.state] += 1
         if f.state == "fresh" and not a.all:
             continue
-        name = str(path.relative_to(Path(a.results)))
         why = {"stale": "changed: " + ", ".join(f.changed), "unknown": "no code digest recorded",
                "fresh": "code unchanged"}[f.state]
-        docs = quoted_in(name)
         print(f"{f.state:7s} {name}  ({why})")
-        print(f"        figures: {headline(data)}" + (f"; quoted in {', '.join(docs)}" if docs else ""))
-    print(f"{counts['stale']} stale, {counts['unknown']} unknown, {counts['fresh']} fresh of {len(rows)} results "
-          "files")
+        if not a.quoted:
+            docs = quoted_in(name, root, read)
+            print(f"        figures: {headline(data)}" + (f"; quoted in {', '.join(docs)}" if docs else ""))
+            continue
+        print(f"        figures: {headline(data)}")
+        for q in found:
+            ok = q.stamped or f.state == "fresh"
+            undated += not ok
+            state = "dated" if q.stamped else ("fresh" if ok else "NO DATE AND COMMIT")
+            print(f"        quoted in {q.doc}:{q.line}: {state}")
+    what = "quoted results files" if a.quoted else "results files"
+    print(f"{counts['stale']} stale, {counts['unknown']} unknown, {counts['fresh']} fresh of {sum(counts.values())} "
+          f"{what}")
+    if a.quoted:
+        print(f"{undated} quote(s) of a stale or unknown file without the date and commit of the measurement"
+              + (": add them beside the quote (e.g. '2026-11-26, commit 3f32302') or measure again" if undated
+                 else ""))
+        return 1 if a.check and undated else 0
     return 1 if a.check and counts["stale"] else 0
 
 

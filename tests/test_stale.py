@@ -3,6 +3,7 @@ benchmarks/stale.py flags those whose code changed, and re-measuring flags a reg
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -126,3 +127,62 @@ def test_direction_from_the_name(bench):
     _, fr = bench
     assert [fr.direction(n) for n in ("variants_per_s", "it_per_s", "speedup_vs_paper", "peak_rss_mb",
                                       "render.wall_s", "rel_rmse_vs_reference", "views")] == [1, 1, 1, -1, -1, -1, 0]
+
+
+# -- quoted figures say which code they belong to (#41) ---------------------------------------------------------
+def _quoting_tree(root: Path, fr, page: str) -> Path:
+    """A tiny project whose docs/PAGE.md holds ``page`` and whose results folder holds r.json, fresh (measured on
+    the tree's own package ``pkg``)."""
+    _tree(root)
+    (root / "docs").mkdir()
+    (root / "docs" / "PAGE.md").write_text(page)
+    results = root / "benchmarks" / "results"
+    results.mkdir()
+    rec = fr.measured_code(root, script=root / "benchmarks" / "bench_x.py", code=["pkg"], modules={})
+    (results / "r.json").write_text(json.dumps({"views_per_s": 50.0, "code_digest": rec}))
+    return root
+
+
+def _quoted_check(root: Path, capsys) -> tuple[int, str]:
+    """``stale.py --check --quoted --root ROOT`` in this process: (exit code, output)."""
+    import stale
+
+    code = stale.main(["--check", "--quoted", "--root", str(root)])
+    return code, capsys.readouterr().out
+
+
+@pytest.mark.parametrize("page,undated", [
+    ("Views: 50/s (`benchmarks/results/r.json`).\n", True),
+    ("Views: 50/s (`results/r.json`, 2026-11-26, commit 3f32302).\n", False),
+    ("Views: 50/s\n(r.json of 2026-11-26,\ncommit `3f32302`).\n", False),  # anywhere in its paragraph
+    ("| views | 50/s | `r.json` 2026-11-26 |\n| commit 3f32302 | | |\n", True),  # a table row is its own block
+    ("Views: 50/s (r.json, commit 3f32302).\n", True),  # the date is missing
+    ("Views: 50/s (r.json, 2026-11-26, 3f32302).\n", True),  # "commit" is missing
+    ("`results/q.json` (2026-11-26, commit 3f32302) and `results/r.json`.\n", True),  # another file's stamp
+    ("```\npython3 bench_x.py --out results/r.json\n```\n", False),  # a command in code is not a quote
+    ("The run writes `DIR/r.json` and `rr.json`.\n", False),  # another folder's r.json, another name
+])
+def test_a_stale_quote_needs_its_date_and_commit(bench, tmp_path, capsys, page, undated):
+    """stale.py --check --quoted passes while the quoted file is fresh; once its code changes, it fails on each
+    quote that does not give the date and commit of the measurement, and names the page and line."""
+    _, fr = bench
+    root = _quoting_tree(tmp_path, fr, page)
+    code, out = _quoted_check(root, capsys)
+    assert code == 0 and "0 stale, 0 unknown, 1 fresh of 1 quoted" in out or "DIR/" in page or "```" in page, out
+    (root / "pkg" / "__init__.py").write_text("X = 2\n")  # the measured code changes: r.json is stale
+    code, out = _quoted_check(root, capsys)
+    assert code == (1 if undated else 0), out
+    assert ("docs/PAGE.md:1: NO DATE AND COMMIT" in out) == undated, out
+
+
+def test_every_quoted_stale_figure_in_the_docs_gives_its_date_and_commit():
+    """The README's test command runs this: each quote in README.md and docs/*.md of a results file whose code
+    changed since (or that records none) says when and on which commit it was measured (issue #41)."""
+    r = subprocess.run([sys.executable, str(BENCH / "stale.py"), "--check", "--quoted"], capture_output=True,
+                       text=True, timeout=300)
+    undated = [ln.strip() for ln in r.stdout.splitlines() if ln.endswith("NO DATE AND COMMIT")]
+    assert r.returncode == 0 and not undated, (
+        "quotes of stale results files without the date and commit of the measurement (add them beside the quote, "
+        f"e.g. '2026-11-26, commit 3f32302', or measure again): {undated}\n{r.stdout[-2000:]}{r.stderr[-2000:]}")
+    found = re.search(r"of (\d+) quoted results files", r.stdout)
+    assert found and int(found.group(1)) >= 30, r.stdout[-2000:]  # the scan found the pages' quotes (63 in #41)
