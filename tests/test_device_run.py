@@ -1,0 +1,61 @@
+"""scripts/device_run.sh (issue #44), the prepared GPU run, end to end at a tiny size on this machine: llvm_ad_rgb,
+``--device cpu``, no carried wheels. Its first run on a GPU can then fail only on what needs a GPU.
+
+Checked: the files it must write under OUT (the JSON, the log, the compact model), every step ok, the store made in
+the asked variant, the llvm comparison exact (llvm against llvm), both fits stopped by the clock with a checkpoint
+and steps, and both models evaluated on the held-out views and on the reference store."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+import torch
+
+from pipeline.config import SampleConfig
+from pipeline.sample import run_sample
+from svcore.config import build
+
+ROOT = Path(__file__).resolve().parents[1]
+TINY = ["--variant", "llvm_ad_rgb", "--device", "cpu", "--per-preset", "2", "--preset", "paint/glossy_red",
+        "--preset", "metal/aluminium_plate", "--preset", "wood/oak_planks", "--size", "64", "--views", "2",
+        "--res", "128", "--sample-workers", "0", "--render-workers", "0", "--compare", "2", "--compact-s", "4",
+        "--paper-s", "4", "--eval-limit", "2", "--loader-workers", "0",
+        "--compact-set", "model.base_width=4", "--compact-set", "model.max_width=8",
+        # the clock starts at the loss log's first row: after one step here
+        "--compact-set", "optim.log_every=1", "--paper-set", "optim.log_every=1",
+        # the paper preset's structure, narrower, with 7 levels so that a 128 crop fits
+        "--paper-set", "model.base_width=4", "--paper-set", "model.max_width=8", "--paper-set", "model.levels=7",
+        "--paper-set", "data.crop=128"]
+
+
+@pytest.mark.slow
+def test_the_prepared_gpu_run_writes_its_json_log_and_model(tmp_path):
+    ref = tmp_path / "reference.zarr"
+    run_sample(ref, build(SampleConfig, "tiny", presets=("leather/tan_worn",), per_preset=1), workers=0)
+    out = tmp_path / "out"
+    env = {**os.environ, "SVGEN_DEVICE_WHEELS": str(tmp_path / "no_wheels")}
+    r = subprocess.run(["bash", str(ROOT / "scripts" / "device_run.sh"), "--out", str(out), "--work",
+                        str(tmp_path / "work"), "--reference", str(ref), *TINY], capture_output=True, text=True,
+                       env=env, cwd=tmp_path)
+    log = (out / "device_run.log").read_text() if (out / "device_run.log").exists() else ""
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:] + log[-3000:]
+    assert sorted(p.name for p in out.iterdir()) == ["compact_model.pt", "device_run.json", "device_run.log"]
+    d = json.loads((out / "device_run.json").read_text())
+    steps = d["steps"]
+    assert list(steps) == ["env", "sample", "render_warmup", "render", "compare", "reference_render", "fit_compact",
+                           "eval_compact_heldout", "eval_compact_reference", "fit_paper", "eval_paper_heldout",
+                           "eval_paper_reference"]
+    assert all(s["ok"] for s in steps.values() if "ok" in s), {k: s for k, s in steps.items() if not s.get("ok")}
+    assert steps["render"]["store_variant"] == "llvm_ad_rgb" and steps["render"]["views"] == 12
+    assert steps["render"]["views_per_s"] > 0
+    assert [row["max_abs_code"] for row in steps["compare"]["rows"]] == [0, 0]
+    for fit in ("fit_compact", "fit_paper"):
+        assert steps[fit]["stopped_by_clock"] and steps[fit]["steps"] >= 1 and steps[fit]["it_per_s"] > 0, steps[fit]
+    for ev in ("eval_compact_heldout", "eval_compact_reference", "eval_paper_heldout", "eval_paper_reference"):
+        assert steps[ev]["metrics"]["model"]["rerender"] >= 0, steps[ev]
+    model = torch.load(out / "compact_model.pt", weights_only=False)
+    assert model["step"] == steps["fit_compact"]["steps"] and model["config"]["model"]["base_width"] == 4
+    assert d["paper_model"]["bytes"] > 0 and d["loader"] == {"workers": 0, "env": {}}
