@@ -12,7 +12,8 @@ where it can):
 3. ``render``: a warm-up render of one preset's SVBRDFs (Mitsuba compiles and caches its kernels), then the timed
    render of the whole store in ``--variant``; views per second over the command's wall clock.
 4. ``compare``: the first ``--compare`` SVBRDFs' views rendered again in llvm_ad_rgb from the store's own maps
-   and config, against the stored ones (skipped, saying why, where there is no libLLVM).
+   and config, against the stored ones; where there is no libLLVM, against the llvm views carried in
+   ``--llvm-views`` (scripts/device_wheels.py made them) of the SVBRDFs whose maps match.
 5. ``fit_compact``, ``fit_paper``: ``svtrain fit`` of each preset in ``--precision`` on the store for at most
    ``--compact-s``/``--paper-s`` seconds from the loss log's first row (constant learning rate, the paper's, so
    that stopping by the clock cuts no schedule short): the run is stopped with SIGINT, which checkpoints; its it/s
@@ -44,6 +45,8 @@ RESULT, COMPACT_MODEL, LOG = "device_run.json", "compact_model.pt", "device_run.
 
 COMPARE = """
 import json, sys
+sys.path.insert(0, "scripts")
+from device_run import diff_row
 import numpy as np, zarr
 from pipeline.mi_env import use_variant
 use_variant("llvm_ad_rgb")
@@ -59,13 +62,67 @@ rows = []
 for s in range(min(int(sys.argv[2]), g["image"].shape[0])):
     maps = decode_maps({k: g[k][s] for k in MAP_NAMES})
     llvm, _ = render_svbrdf(scene, maps, s, cfg)
-    other = g["image"][s]
-    d = np.abs(llvm.astype(np.int16) - other.astype(np.int16))
-    rows.append({"svbrdf": s, "views": int(d.shape[0]), "max_abs_code": int(d.max()),
-                 "mean_abs_code": float(d.mean()), "share_equal": float((d == 0).mean()),
-                 "share_within_1": float((d <= 1).mean())})
+    rows.append(diff_row(s, llvm, g["image"][s]))
 print(json.dumps(rows))
 """
+
+
+def diff_row(s: int, llvm, other) -> dict:
+    """How the views of SVBRDF ``s`` in another variant (uint8 codes) differ from llvm_ad_rgb's."""
+    import numpy as np
+
+    d = np.abs(np.asarray(llvm).astype(np.int16) - np.asarray(other).astype(np.int16))
+    return {"svbrdf": s, "views": int(d.shape[0]), "max_abs_code": int(d.max()), "mean_abs_code": float(d.mean()),
+            "share_equal": float((d == 0).mean()), "share_within_1": float((d <= 1).mean())}
+
+
+def maps_digest(group, s: int) -> str:
+    """sha256 of SVBRDF ``s``'s stored base maps in a renders store: which SVBRDF carried views are of."""
+    import hashlib
+
+    import numpy as np
+
+    from materials.maps import MAP_NAMES
+
+    h = hashlib.sha256()
+    for k in MAP_NAMES:
+        h.update(np.ascontiguousarray(group[k][s]).tobytes())
+    return h.hexdigest()
+
+
+#: the render settings two stores' views must share to be compared
+SAME = ("views", "res", "spp", "light", "sampler", "seed")
+
+
+def write_llvm_views(renders: Path, count: int, path: Path) -> Path:
+    """Save the first ``count`` SVBRDFs' views of an llvm_ad_rgb renders store, with their maps' digests and the
+    render settings: the comparison a machine without libLLVM makes (:func:`compare_carried`)."""
+    import numpy as np
+    import zarr
+
+    g = zarr.open_group(str(renders), mode="r")
+    k = min(count, g["image"].shape[0])
+    cfg = {key: g.attrs["config"].get(key) for key in SAME}
+    np.savez_compressed(path, images=g["image"][:k], digests=np.array([maps_digest(g, s) for s in range(k)]),
+                        config=np.array(json.dumps(cfg)))
+    return path
+
+
+def compare_carried(renders: Path, path: Path) -> dict:
+    """The views of ``renders`` against carried llvm_ad_rgb views of the same SVBRDFs (same maps, same settings)."""
+    import numpy as np
+    import zarr
+
+    g = zarr.open_group(str(renders), mode="r")
+    z = np.load(path)
+    cfg = json.loads(str(z["config"]))
+    if {key: g.attrs["config"].get(key) for key in SAME} != cfg:
+        return {"ok": False, "skipped": f"the carried llvm views were rendered with {cfg}"}
+    rows = [diff_row(s, z["images"][s], g["image"][s]) for s, digest in enumerate(z["digests"])
+            if s < g["image"].shape[0] and maps_digest(g, s) == str(digest)]
+    if not rows:
+        return {"ok": False, "skipped": "the carried llvm views are of other SVBRDFs (their maps differ)"}
+    return {"ok": True, "rows": rows, "against": str(path)}
 
 
 class Run:
@@ -222,6 +279,8 @@ def main(argv=None) -> int:
     ap.add_argument("--eval-limit", type=int, default=200, help="held-out views evaluated")
     ap.add_argument("--reference", default=str(ROOT / ".device" / "reference" / "materials.zarr"),
                     help="an imported materials store (svgen import), rendered and evaluated on; skipped if missing")
+    ap.add_argument("--llvm-views", default=str(ROOT / ".device" / "reference" / "llvm_views.npz"),
+                    help="llvm views made here (scripts/device_wheels.py), compared where there is no libLLVM")
     ap.add_argument("--loader-workers", type=int, default=4, help="svtrain's data.workers where drjit has LLVM")
     a = ap.parse_args(argv)
     if not a.out:
@@ -278,8 +337,11 @@ def main(argv=None) -> int:
         rows = json.loads(p.stdout.strip().splitlines()[-1]) if p.returncode == 0 else None
         run.step("compare", {"ok": p.returncode == 0, "rows": rows, "wall_s": time.perf_counter() - t0,
                              "error": p.stderr[-2000:] if p.returncode else None})
+    elif a.compare and Path(a.llvm_views).is_file():
+        run.step("compare", compare_carried(renders, Path(a.llvm_views)))
     else:
-        run.step("compare", {"ok": False, "skipped": "no libLLVM >= 16 here: llvm_ad_rgb cannot render"})
+        run.step("compare", {"ok": False, "skipped": "no libLLVM >= 16 here (llvm_ad_rgb cannot render) and no "
+                             f"carried llvm views at {a.llvm_views}"})
 
     ref_renders = None
     if Path(a.reference).is_dir():

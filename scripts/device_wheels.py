@@ -22,6 +22,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
+sys.path.insert(0, str(ROOT))
 
 import slim_wheel  # noqa: E402
 
@@ -90,6 +91,27 @@ def reference(src: Path, count: int, dest: Path) -> Path:
     return store
 
 
+def llvm_views(path: Path, count: int = 2, size: int = 256, views: int = 10, res: int = 256) -> Path:
+    """The llvm_ad_rgb views of the first ``count`` SVBRDFs of device_run.py's store (its defaults: the first preset
+    of all, ``size``, ``views``, ``res``), rendered here, for the comparison where the GPU machine has no libLLVM."""
+    import tempfile
+
+    import materials
+    from device_run import write_llvm_views
+    from pipeline.config import RenderConfig, SampleConfig
+    from pipeline.render.stage import run_render
+    from pipeline.sample import run_sample
+    from svcore.config import build
+
+    if path.exists():
+        return path
+    with tempfile.TemporaryDirectory() as d:
+        first = materials.presets()[0].name  # a variant's seed is of its preset and index alone
+        run_sample(Path(d, "v.zarr"), build(SampleConfig, presets=(first,), per_preset=count, size=size), workers=0)
+        run_render(Path(d, "v.zarr"), Path(d, "r.zarr"), build(RenderConfig, views=views, res=res), workers=0)
+        return write_llvm_views(Path(d, "r.zarr"), count, path)
+
+
 def tree_bytes() -> int:
     """Bytes of what a device call sends besides the carried paths: tracked and untracked-not-ignored files."""
     r = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
@@ -111,6 +133,7 @@ def main(argv=None) -> int:
     wheels = slim_all(download(dest / "download"), dest / "wheels")
     if a.reference_from:
         reference(Path(a.reference_from), a.reference_count, dest / "reference")
+    llvm_views(dest / "reference" / "llvm_views.npz")
     for w in wheels:
         print(f"{w.stat().st_size:>12,}  {w.name}  (downloaded {(dest / 'download' / w.name).stat().st_size:,})")
     sizes = {"tree": tree_bytes(), "wheels": du(dest / "wheels"), "reference": du(dest / "reference")}

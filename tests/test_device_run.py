@@ -59,3 +59,33 @@ def test_the_prepared_gpu_run_writes_its_json_log_and_model(tmp_path):
     model = torch.load(out / "compact_model.pt", weights_only=False)
     assert model["step"] == steps["fit_compact"]["steps"] and model["config"]["model"]["base_width"] == 4
     assert d["paper_model"]["bytes"] > 0 and d["loader"] == {"workers": 0, "env": {}}
+
+
+def test_carried_llvm_views_compare_only_the_same_svbrdfs_under_the_same_settings(tmp_path):
+    """Where the GPU machine has no libLLVM, the cuda store is compared with llvm views made here: only SVBRDFs
+    whose maps match, only under the same render settings (each refusal says why)."""
+    import sys
+
+    from pipeline.config import RenderConfig
+    from pipeline.render.stage import run_render
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import device_run
+
+    def store(name, seed):
+        v = tmp_path / f"{name}_v.zarr"
+        run_sample(v, build(SampleConfig, "tiny", presets=("paint/glossy_red",), per_preset=2, seed=seed), workers=0)
+        run_render(v, tmp_path / f"{name}.zarr", build(RenderConfig, "tiny"), workers=0)
+        return tmp_path / f"{name}.zarr"
+
+    here = device_run.write_llvm_views(store("a", 0), 2, tmp_path / "llvm_views.npz")
+    same = device_run.compare_carried(tmp_path / "a.zarr", here)
+    assert same["ok"] and [r["max_abs_code"] for r in same["rows"]] == [0, 0] and same["rows"][0]["views"] == 2
+    other = device_run.compare_carried(store("b", 1), here)
+    assert not other["ok"] and "other SVBRDFs" in other["skipped"]
+    import numpy as np
+
+    z = dict(np.load(here))
+    np.savez(tmp_path / "views3.npz", **{**z, "config": np.array(str(z["config"]).replace('"views": 2', '"views": 3'))})
+    settings = device_run.compare_carried(tmp_path / "a.zarr", tmp_path / "views3.npz")
+    assert not settings["ok"] and "rendered with" in settings["skipped"]
