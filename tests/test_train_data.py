@@ -166,3 +166,27 @@ def _cut(svbrdf, y0, x0, c):
     from materials.maps import SVBRDF
 
     return SVBRDF(**{k: getattr(svbrdf, k)[y0:y0 + c, x0:x0 + c] for k in ("normal", "diffuse", "specular", "roughness")})
+
+
+def test_evaluation_gives_a_coordinate_model_its_view_coordinates(src):
+    """``train.evaluate.evaluate`` of a model with coord_channels feeds it the evaluated window's view coordinates
+    (what training fed it), not the crop's own grid: its per-view errors equal a forward pass with the dataset's
+    coordinates and differ from one with ``pixel_coords`` of the crop."""
+    from train.config import ModelConfig
+    from train.evaluate import evaluate, metrics
+    from train.net import SVBRDFNet, pixel_coords
+
+    torch.manual_seed(0)
+    net = SVBRDFNet(ModelConfig(base_width=4, max_width=16, levels=3, coord_channels=True, zero_output=False)).eval()
+    with torch.no_grad():
+        net.enc[0].conv.weight[:, 3:] *= 50  # make the coordinates matter
+    idx = [0, 1, 2]
+    got = evaluate(net, src, idx, 24, torch.full((10,), 0.5), batch_size=2)["per_view"]["normal"]
+    ds = PairDataset(src, idx, 24, train=False, coords=True)
+    img, gt, xy = (torch.stack([ds[k][j] for k in range(3)]) for j in range(3))
+    with torch.no_grad():
+        want = metrics(net(img, xy), gt)["normal"]
+        own = metrics(net(img), gt)["normal"]
+    np.testing.assert_allclose(got, want, rtol=1e-5)
+    assert np.abs(own - want).max() > 1e-5
+    assert not torch.equal(xy, pixel_coords(img))
