@@ -1,4 +1,4 @@
-"""benchmarks/probe_quantisation.py: the 8- and 16-bit quantisers are the stored sRGB curve at their step counts,
+"""experiments/quantisation/probe_quantisation.py: the 8- and 16-bit quantisers are the stored sRGB curve at their step counts,
 and the relief-to-quantisation ratio is the dB figure that uniform quantisation noise predicts."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "experiments" / "quantisation"))
 import probe_quantisation as pq  # noqa: E402
 
 from pipeline.render.encoding import decode_srgb8, encode_srgb8  # noqa: E402

@@ -17,8 +17,9 @@ could give the normal metric at most): near-flat relief leaves a faint imprint b
 Views whose normals are flat (the flat relief mode, or no relief) have no imprint and are left out (normal RMSE
 against flat below ``--min-tilt``).
 
-    python3 benchmarks/probe_quantisation.py --store svgen=DIR/now_r.zarr --store real=W/ref_crop1/renders.zarr
-        # -> results/quantisation.json, docs/img/chart_quantisation.png
+    python3 experiments/quantisation/probe_quantisation.py --store svgen=DIR/now_r.zarr \
+        --store real=W/ref_crop1/renders.zarr
+        # -> experiments/quantisation/results/quantisation.json, docs/img/chart_quantisation.png
 
 A store is named NAME=PATH (a renders store: svgen's held-out probe store, the CC0 reference rendered by
 bench_sim2real); ``--views`` evenly spaced views of each are measured.
@@ -26,11 +27,17 @@ bench_sim2real); ``--views`` evenly spaced views of each are measured.
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from harness import IMG, RESULTS, parser, pyplot, save_figure, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import IMG, parser, pyplot, save_figure, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/quantisation/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 #: the network's input mapping (train/net.py LOG_EPS): log(x + EPS), up to an affine map that cancels in a ratio
 LOG_EPS = 0.01
