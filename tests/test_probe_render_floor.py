@@ -1,5 +1,6 @@
-"""benchmarks/probe_render_floor.py: its stopped-early integrators do what they say (the intersect step sees the
-capture scene's texel under each pixel centre), and its alternative intersection renders what ``direct`` renders.
+"""experiments/render_floor/probe_render_floor.py: its stopped-early integrators do what they say (the intersect
+step sees the capture scene's texel under each pixel centre), and its alternative intersection renders what
+``direct`` renders.
 """
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "experiments" / "render_floor"))
 import probe_render_floor as prf  # noqa: E402
 
 RES = 64

@@ -9,12 +9,12 @@ from render_helpers import checker_svbrdf
 from pipeline.render.scene import FlashScene, scene_dict
 from pipeline.render.views import ViewParams, transform_maps
 
-#: relative tolerance, with an absolute floor of 1e-3 of the radiance. The two integrators shade the same hit with
-#: the same BSDF, light and sampler; only the hit point's float32 rounding differs (Embree's ray-triangle code vs
-#: the rectangle's ray-plane code: ~1e-7 of the plane's size), which moves the GGX half vector by as much. Over 45
-#: library views ``benchmarks/probe_render_floor.py`` measured a max relative difference of 1.1e-5 (256²) and
-#: 1.4e-5 (288²); 1e-4 leaves 7x room, yet a wrong cosine, a missing light fall-off, a shadow term or a single pixel
-#: of misalignment all differ by > 1e-2.
+#: relative tolerance, with an absolute floor of 1e-3 of the radiance. The two integrators shade the same hit with the
+#: same BSDF, light and sampler; only the hit point's float32 rounding differs (Embree's ray-triangle code vs the
+#: rectangle's ray-plane code: ~1e-7 of the plane's size), which moves the GGX half vector by as much. Over 45 library
+#: views ``experiments/render_floor/probe_render_floor.py`` measured a max relative difference of 1.1e-5 (256²) and
+#: 1.4e-5 (288²); 1e-4 leaves 7x room, yet a wrong cosine, a missing light fall-off, a shadow term or a single pixel of
+#: misalignment all differ by > 1e-2.
 RTOL = 1e-4
 
 

@@ -18,19 +18,26 @@ the same scene with integrators that stop early (registered here, used nowhere e
 Beside them: ``transform_planes`` (the view's texture transform) at 1 and 2 subsamples per axis (2 when the view
 minifies: zoom above base/res, about half the views at the default zoom range) and the drjit 8-bit encoding.
 
-    python3 benchmarks/probe_render_floor.py    # -> results/render_floor.json
+    python3 experiments/render_floor/probe_render_floor.py    # -> experiments/render_floor/results/render_floor.json
 
 CPU is ``time.process_time`` of this process, median of ``--rounds`` rounds of ``--calls`` calls, the items
 interleaved within each round.
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
 import statistics
 import time
 
 import numpy as np
 
-from harness import RESULTS, parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import parser, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/render_floor/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 #: integrators of the probe, in order: name -> what it adds
 STEPS = {"camera": "camera rays and film", "intersect": "+ scene.ray_intersect (Embree)",
