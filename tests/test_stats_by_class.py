@@ -1,6 +1,6 @@
-"""benchmarks/stats_by_class.py: categories come from the reference README's table (header and rule rows left
-out), the per-group summary and Wasserstein pull columns are right on tiny arrays, and a missing reference folder is
-refused in one line."""
+"""experiments/library_stats/stats_by_class.py: categories come from the reference README's table (header and rule rows
+left out), the per-group summary and Wasserstein pull columns are right on tiny arrays, and a missing reference
+folder is refused in one line."""
 from __future__ import annotations
 
 import subprocess
@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "experiments" / "library_stats"))
 import stats_by_class as sbc  # noqa: E402
 
 
@@ -31,7 +31,8 @@ def test_a_class_far_from_the_reference_pulls_the_library_away():
 
 
 def test_missing_reference_is_refused_in_one_line(tmp_path):
-    r = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "stats_by_class.py"), str(tmp_path / "nope")],
+    r = subprocess.run([sys.executable, str(ROOT / "experiments" / "library_stats" / "stats_by_class.py"),
+                        str(tmp_path / "nope")],
                        capture_output=True, text=True)
     assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "no reference folder" in r.stderr
 

@@ -16,9 +16,9 @@ quantiles of the pooled pixel values; per class also
   class pulls the library AWAY from the reference; removing it would bring the library closer).
 
 Plus every preset's mean roughness and specular (over its variants) so that an offending class's presets can be
-found. Writes benchmarks/results/stats_by_class.json (or ``--out``) and prints a markdown table.
+found. Writes experiments/library_stats/results/stats_by_class.json (or ``--out``) and prints a markdown table.
 
-Usage: python3 benchmarks/stats_by_class.py [REFERENCE_DIR] [--per-preset 4] [--size 256] [--out FILE]
+Usage: python3 experiments/library_stats/stats_by_class.py [REFERENCE_DIR] [--per-preset 4] [--size 256] [--out FILE]
 """
 from __future__ import annotations
 
@@ -32,7 +32,12 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import wasserstein_distance
 
-from harness import RESULTS, ROOT, parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import ROOT, parser, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/library_stats/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 DEFAULT_REFERENCE = ROOT.parent / "shared" / "materials-cc0"
 #: pixel statistics (pooled pixel values) and per-material ones (one value per material: svgen stats compares those

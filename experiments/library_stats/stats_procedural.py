@@ -2,14 +2,15 @@
 
 Samples every preset (``--per-preset`` variants at ``--size``, seed 0, the default sigma) into a temporary store
 and writes the stats summary, plus the specular F0 luminance per class (median, 5-95 % range, mean spatial std),
-to benchmarks/results/stats_procedural.json (or ``--out``).
+to experiments/library_stats/results/stats_procedural.json (or ``--out``).
 
-Usage: python3 benchmarks/stats_procedural.py [--per-preset 3] [--size 128] [--out FILE]
+Usage: python3 experiments/library_stats/stats_procedural.py [--per-preset 3] [--size 128] [--out FILE]
 """
 from __future__ import annotations
 
 import json
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
@@ -21,7 +22,12 @@ from pipeline.stats import store_stats
 from storage.svbrdf_store import SVBRDFStore
 from svcore.config import build
 
-from harness import RESULTS, parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import parser, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/library_stats/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def main(argv=None) -> dict:
