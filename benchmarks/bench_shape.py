@@ -50,7 +50,7 @@ from harness import IMG, RESULTS, parser, timed, write_results
 STORES = {"base": (0.0, 8.0), "c4": (0.15, 4.0), "c12": (0.15, 12.0), "c40": (0.15, 40.0), "c12s": (0.3, 12.0),
           # the base variants with decorrelated blends: a different procedural mask per map, so that a blend's
           # relief and its albedo pattern come from different materials (real materials' normals correlate with
-          # their albedo far less than procedural ones: results/normals_probe_bundled.json)
+          # their albedo far less than procedural ones: experiments/normal_supervision/results/normals_probe_bundled.json)
           "dmask": (0.0, 8.0, ("--set", "mode=mask", "--set", "mask_per_map=true")),
           # round 2 (2026-11-26): today's default library, and the same variants and blends rendered with another
           # per-view zoom range (render.zoom; the default is log-uniform on [0.7, 1.4])

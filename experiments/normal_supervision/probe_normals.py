@@ -9,13 +9,15 @@
    RMSE in the (n+1)/2 encoding against the flat normal's, the energy of the predicted normal detail (xy)
    relative to the true one, their correlation, and the share of the squared error that is a per-image tilt.
 
-    python3 benchmarks/probe_normals.py --checkpoint runs/train    # -> benchmarks/results/normals_probe.json
-    python3 benchmarks/probe_normals.py --checkpoint bundled --store data/renders.zarr \
-        --reference REF/renders.zarr --out benchmarks/results/normals_probe_bundled.json   # + real, by octave
+    python3 experiments/normal_supervision/probe_normals.py --checkpoint runs/train    # -> results/normals_probe.json
+    python3 experiments/normal_supervision/probe_normals.py --checkpoint bundled --store data/renders.zarr \
+        --reference REF/renders.zarr --out experiments/normal_supervision/results/normals_probe_bundled.json
+        # + real, by octave
 """
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +27,12 @@ from train.checkpoint import load_model
 from train.data import PairDataset, open_source, packed_maps, split_by_source
 from train.render import flash_render
 
-from harness import RESULTS, ROOT, parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import ROOT, parser, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/normal_supervision/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def data_signal(src, n: int, seed: int, min_energy: float = 0.005) -> dict:

@@ -12,14 +12,17 @@ normal RMSE against the flat normal's, predicted detail energy and correlation w
 The same seed, batches, init and optimiser (the compact preset's lr, cosine schedule and clipping) for every
 objective; only the loss differs.
 
-    python3 benchmarks/probe_normal_supervision.py                 # -> benchmarks/results/normal_supervision.json
-    python3 benchmarks/probe_normal_supervision.py --steps 200 --objectives normal_l2 render   # quicker look
+    python3 experiments/normal_supervision/probe_normal_supervision.py    # -> results/normal_supervision.json
+    python3 experiments/normal_supervision/probe_normal_supervision.py --steps 200 --objectives normal_l2 render
+        # a quicker look
 """
 from __future__ import annotations
 
 import json
 import multiprocessing
+import sys
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -29,7 +32,12 @@ from train.data import PairDataset, make_loader, open_source, split_by_source
 from train.fit import build, lr_at, train_step
 from train.loss import make_loss
 
-from harness import RESULTS, ROOT, parser, timed, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import ROOT, parser, timed, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/normal_supervision/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 from probe_normals import prediction_stats
 
 OBJECTIVES = ("normal_l1", "normal_l2", "render", "render+normal_l2=100")
