@@ -7,7 +7,7 @@ crop window yet). Both go through :func:`pipeline.stats.compare.compare`, which 
 ``svgen stats LIBRARY --reference REFERENCE`` prints: each statistic's distance (1-D Wasserstein, L1 of octave
 shares) beside the reference's split-half noise floor (``--splits`` seeded halvings averaged).
 
-Writes key "statistics" of benchmarks/results/realism.json (other keys of that file, e.g. "sim_to_real", are kept)
+Writes key "statistics" of benchmarks/results/realism.json (its other keys are kept)
 and the chart docs/img/chart_realism.png. A missing reference folder is refused in one line (exit 2).
 
 Usage: python3 benchmarks/bench_realism.py [REFERENCE_DIR] [--per-preset 4] [--size 256] [--splits 8] [--seed 0]

@@ -1,4 +1,4 @@
-"""benchmarks/bench_shape.py round 2: its arms are compared with their own baseline on the common store's views
+"""experiments/shape/bench_shape.py round 2: its arms are compared with their own baseline on the common store's views
 (paired), a re-rendered store reuses its parent's variants and blends, and round 1 is unchanged."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "experiments" / "shape"))
 import bench_shape as bs  # noqa: E402
 
 

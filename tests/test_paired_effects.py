@@ -1,5 +1,5 @@
-"""benchmarks/paired_effects.py: the gain is the control's RMSE minus the arm's, paired view by view, its interval
-resamples whole SVBRDFs, and two evaluations of different views are refused."""
+"""experiments/sim2real/paired_effects.py: the gain is the control's RMSE minus the arm's, paired view by view, its
+interval resamples whole SVBRDFs, and two evaluations of different views are refused."""
 from __future__ import annotations
 
 import sys
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "experiments" / "sim2real"))
 import paired_effects as pe  # noqa: E402
 
 

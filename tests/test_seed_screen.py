@@ -1,4 +1,5 @@
-"""benchmarks/seed_screen.py: every effects file screened against a seed pair, set by set, the records unchanged."""
+"""experiments/sim2real/seed_screen.py: every effects file screened against a seed pair, set by set, the records
+unchanged."""
 from __future__ import annotations
 
 import json
@@ -8,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "experiments" / "sim2real"))
 import paired_effects as pe  # noqa: E402
 import seed_screen as ss  # noqa: E402
 

@@ -1,5 +1,5 @@
 """Which recorded paired effects stand out from training-seed noise: every ``effects_*.json`` of
-``benchmarks/paired_effects.py`` screened against the seed pairs of one control (``effects_seed.json``,
+``experiments/sim2real/paired_effects.py`` screened against the seed pairs of one control (``effects_seed.json``,
 ``effects_seed2.json``: ``--seed``, repeatable), as ``--seed-noise`` does.
 
 The records themselves are kept as they were measured; this writes one summary beside them. Sets are matched by
@@ -7,15 +7,21 @@ name (``real_crop1``, ``real_crop0.5``); a held-out set of another name (``heldo
 is screened with the seed pairs' ``heldout_default``. The seed runs were trained 2,770 steps on the #23 default
 library: for runs of other lengths or libraries they are a rough guide, and a few seeds estimate the noise poorly.
 
-    python3 benchmarks/seed_screen.py          # -> benchmarks/results/effects_seed_screen.json
+    python3 experiments/sim2real/seed_screen.py          # -> experiments/sim2real/results/effects_seed_screen.json
 """
 from __future__ import annotations
 
 import copy
 import json
+import sys
 from pathlib import Path
 
-from harness import RESULTS, parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import parser, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/sim2real/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 from paired_effects import COLUMNS, with_seed_noise
 
 SEEDS = [RESULTS / "effects_seed.json", RESULTS / "effects_seed2.json"]

@@ -15,26 +15,34 @@ Each arm, every step the command a user runs:
    trained on, the split being by preset) and on the real reference at each ``--crops`` fraction
    (``svgen reference REF --crop C``, every view).
 
-Results (``benchmarks/results/shape_finetune.json``, chart ``docs/img/chart_shape_finetune.png``): per arm and
+Results (``experiments/shape/results/shape_finetune.json``, chart ``docs/img/chart_shape_finetune.png``): per arm and
 evaluation set the RMSE of every column beside the flat/constant baselines; the normal RMSE relative to the flat
 map's; per reference material the normal RMSE of each arm beside the flat map's; and each arm's effect on the
 normal RMSE against the control (control minus arm: positive is better), with a 95 % bootstrap interval over
 materials (``train.evaluate.paired``).
 
-    python3 benchmarks/bench_shape_finetune.py                      # every arm, 1,500 steps each
-    python3 benchmarks/bench_shape_finetune.py --arms control decorrelated --steps 1500
+    python3 experiments/shape/bench_shape_finetune.py                      # every arm, 1,500 steps each
+    python3 experiments/shape/bench_shape_finetune.py --arms control decorrelated --steps 1500
 """
 from __future__ import annotations
 
 import json
 import os
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from bench_sim2real import DEFAULT_REF, _done, _rel, sh
-from harness import IMG, RESULTS, ROOT, parser, pyplot, save_figure, write_results
+# harness.py (and freshness.py) stay in benchmarks/, the sim-to-real driver is experiments/sim2real/'s: this finished
+# experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "sim2real"))
+from bench_sim2real import DEFAULT_REF, _done, _rel, sh  # noqa: E402
+from harness import IMG, ROOT, parser, pyplot, save_figure, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/shape/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 COLUMNS = ("normal", "diffuse", "roughness", "specular", "rerender")
 #: store name -> the sample settings it is made with (every relief key explicit, so that a change of the

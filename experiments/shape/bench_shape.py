@@ -23,10 +23,11 @@ evaluated whole (``ROUND2``): ``--build DIR --only now now_z1 now_zw``, then ``-
 
 The stores are built once by ``--build DIR`` (the commands are recorded in shape.json), then
 
-    python3 benchmarks/bench_shape.py --build /tmp/shape                       # the stores (~4 min each, loaded)
-    python3 benchmarks/bench_shape.py --stores /tmp/shape --steps 600          # the arms -> results/shape.json
-    python3 benchmarks/bench_shape.py --stores /tmp/shape --arms base relief_mid --seeds 0 1   # some arms, more seeds
-    python3 benchmarks/bench_shape.py --chart --merge /tmp/b.json /tmp/c.json   # grids run in parallel, into one file
+    S=experiments/shape/bench_shape.py
+    python3 $S --build /tmp/shape                       # the stores (~4 min each, loaded)
+    python3 $S --stores /tmp/shape --steps 600          # the arms -> experiments/shape/results/shape.json
+    python3 $S --stores /tmp/shape --arms base relief_mid --seeds 0 1   # some arms, more seeds
+    python3 $S --chart --merge /tmp/b.json /tmp/c.json   # grids run in parallel, into one file
 
 Results accumulate: an arm (name, seed, steps) already in the output file is not trained again, so a long grid
 can be run piecewise. ``--chart`` redraws docs/img/chart_shape.png from the file alone.
@@ -44,13 +45,19 @@ from pathlib import Path
 
 import numpy as np
 
-from harness import IMG, RESULTS, parser, timed, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import IMG, parser, timed, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/shape/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 #: the stores: name -> (relief RMS slope, relief band centre in cycles per map); relief 0 = the default library.
 STORES = {"base": (0.0, 8.0), "c4": (0.15, 4.0), "c12": (0.15, 12.0), "c40": (0.15, 40.0), "c12s": (0.3, 12.0),
           # the base variants with decorrelated blends: a different procedural mask per map, so that a blend's
           # relief and its albedo pattern come from different materials (real materials' normals correlate with
-          # their albedo far less than procedural ones: experiments/normal_supervision/results/normals_probe_bundled.json)
+          # their albedo far less than procedural ones:
+          # experiments/normal_supervision/results/normals_probe_bundled.json)
           "dmask": (0.0, 8.0, ("--set", "mode=mask", "--set", "mask_per_map=true")),
           # round 2 (2026-11-26): today's default library, and the same variants and blends rendered with another
           # per-view zoom range (render.zoom; the default is log-uniform on [0.7, 1.4])
@@ -475,7 +482,7 @@ def main(argv=None) -> None:
                       f"train rel {relative([r], 'train')['rel']:.3f} ({r['train_s']} s)", flush=True)
                 write_results(out, _payload(results, a), a.note)
     if not a.chart:
-        results["commands"].append(" ".join(["python3", "benchmarks/bench_shape.py", *(argv or sys.argv[1:])]))
+        results["commands"].append(" ".join(["python3", "experiments/shape/bench_shape.py", *(argv or sys.argv[1:])]))
     write_results(out, _payload(results, a), a.note)
     s = json.loads(out.read_text())
     chart(s["summary"], Path(a.png), a.steps, s.get("choice") or a.choice, s.get("cross"))
@@ -491,7 +498,7 @@ def _relative_paths(cmd: str) -> str:
 
 
 def _payload(results: dict, a) -> dict:
-    return {"command": _relative_paths(" ".join(["python3", "benchmarks/bench_shape.py", *sys.argv[1:]])),
+    return {"command": _relative_paths(" ".join(["python3", "experiments/shape/bench_shape.py", *sys.argv[1:]])),
             "probe": {"preset": "compact", "crop": 128, "steps": a.steps, "per_preset": PER_PRESET, "blends": BLENDS,
                       "views": VIEWS, "stores": {k: {"relief": v[0], "relief_cycles": v[1]} for k, v in STORES.items()},
                       "build": {n: [" ".join(c[:2] + [Path(x).name if x.endswith(".zarr") else x for x in c[2:]])

@@ -10,23 +10,26 @@ What it runs, each step the command a user runs (so the figures are those of the
    params.yaml ``train.optim.iterations`` (the ``dvc repro`` model);
 3. the reference at each ``--crops`` fraction: ``svgen reference REF WORK/ref_crop<C> --params params.yaml --crop C``
    (imported at the stated physical scale, rendered with the training views; reused when finished);
-4. ``svtrain eval --checkpoint RUN --store WORK/ref_crop<C>/renders.zarr`` on each, side by side (a store that is
-   not the run's training store: every view, as ``svtrain eval-reference`` does), its eval.md copied to
-   ``benchmarks/results/sim2real/crop_<C>.md``; and ``svtrain eval --checkpoint RUN`` on the run's own held-out split
-   (``scales.heldout``, ``sim2real/heldout.md``). Baselines: the training split's means, as in every eval.
+4. ``svtrain eval --checkpoint RUN --store WORK/ref_crop<C>/renders.zarr`` on each, side by side (a store that is not
+   the run's training store: every view, as ``svtrain eval-reference`` does), its eval.md copied to
+   ``experiments/sim2real/results/sim2real/crop_<C>.md``; and ``svtrain eval --checkpoint RUN`` on the run's own
+   held-out split (``scales.heldout``, ``sim2real/heldout.md``). Baselines: the training split's means, as in every
+   eval.
 
-Results: key ``sim_to_real`` of ``benchmarks/results/realism.json`` (read, modified, written: other keys, such as
-``statistics`` written by bench_realism.py, are kept): per crop the model's and both baselines' RMSE per column
-(normal, diffuse, roughness, specular, re-render), and per column the model's gain over the stronger baseline with
-its 95 % bootstrap interval over materials; the training run (steps, store size, how the steps were chosen).
+Results: key ``sim_to_real`` of ``experiments/sim2real/results/sim2real.json`` (read, modified, written: other keys,
+such as ``sim_to_real_before_fine_grain``, are kept; until #41 the key lived in benchmarks/results/realism.json): per
+crop the model's and both baselines' RMSE per column (normal, diffuse, roughness, specular, re-render), and per
+column the model's gain over the stronger baseline with its 95 % bootstrap interval over materials; the training run
+(steps, store size, how the steps were chosen).
 
-    python3 benchmarks/bench_sim2real.py                      # the dvc repro model (1,200 steps) on a default store
-    python3 benchmarks/bench_sim2real.py --steps 8760         # the README's budget_30min step count
-    python3 benchmarks/bench_sim2real.py --budget-s 1800      # steps from the quiet calibration of 2 cores
-    python3 benchmarks/bench_sim2real.py --checkpoint runs/train   # a run trained elsewhere (e.g. dvc repro)
-    python3 benchmarks/bench_sim2real.py --steps 2770 --heldout-store OLD/renders.zarr   # + another library's held-out
-    python3 benchmarks/bench_sim2real.py --steps 2770 --sample-set flat_share=0 --sample-set swap_share=0   # before #22
-    python3 benchmarks/bench_sim2real.py --steps 2770 --train-set optim.normal_late_loss=rmse   # a training change
+    S=experiments/sim2real/bench_sim2real.py
+    python3 $S                      # the dvc repro model (1,200 steps) on a default store
+    python3 $S --steps 8760         # the README's budget_30min step count
+    python3 $S --budget-s 1800      # steps from the quiet calibration of 2 cores
+    python3 $S --checkpoint runs/train   # a run trained elsewhere (e.g. dvc repro)
+    python3 $S --steps 2770 --heldout-store OLD/renders.zarr   # + another library's held-out
+    python3 $S --steps 2770 --sample-set flat_share=0 --sample-set swap_share=0   # before #22
+    python3 $S --steps 2770 --train-set optim.normal_late_loss=rmse   # a training change
 """
 from __future__ import annotations
 
@@ -34,15 +37,21 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from harness import RESULTS, ROOT, parser, update_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import ROOT, parser, update_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/sim2real/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 COLUMNS = ("normal", "diffuse", "roughness", "specular", "rerender")
 BASELINES = ("input_as_diffuse", "dataset_mean")
-REALISM = RESULTS / "realism.json"
+REALISM = RESULTS / "sim2real.json"
 TABLES = RESULTS / "sim2real"
 DEFAULT_REF = ROOT.parent / "shared" / "materials-cc0"
 
@@ -146,7 +155,7 @@ def main(argv=None) -> None:
     ap.add_argument("--checkpoint", default=None, help="evaluate this run instead of training one")
     ap.add_argument("--steps", type=int, default=0, help="training steps (default: params.yaml's)")
     ap.add_argument("--budget-s", type=float, default=0.0, help="training budget in quiet wall seconds -> steps")
-    ap.add_argument("--calibration", default=str(RESULTS / "train_budget_calibration.json"),
+    ap.add_argument("--calibration", default=str(ROOT / "benchmarks" / "results" / "train_budget_calibration.json"),
                     help="bench_train_budget.py --calibrate-only output: it/s per base width")
     ap.add_argument("--work", default=str(ROOT / "runs" / "sim2real"), help="scratch folder (stores, runs)")
     ap.add_argument("--out", default=str(REALISM), help="results JSON (read-modify-write of key sim_to_real)")

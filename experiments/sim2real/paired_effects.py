@@ -4,8 +4,8 @@ views (positive: the arm is better), with a 95 % bootstrap interval over whole S
 Each pair compares two ``svtrain eval`` output folders of the same store (their ``per_view.csv``); runs trained with
 the same seed on two libraries give the same views of every evaluated store, so the difference is the runs'.
 
-    python3 benchmarks/paired_effects.py --pair real_crop1 CONTROL/eval_crop1 ARM/eval_crop1 \\
-        --pair heldout CONTROL/eval_heldout ARM/eval_heldout_other --out benchmarks/results/effects.json
+    python3 experiments/sim2real/paired_effects.py --pair real_crop1 CONTROL/eval_crop1 ARM/eval_crop1 \\
+        --pair heldout CONTROL/eval_heldout ARM/eval_heldout_other --out experiments/sim2real/results/effects.json
 
 The bootstrap interval resamples SVBRDFs of one pair of runs: it leaves out training noise (weights, data order,
 loss draws), which ``effects_seed.json`` measured at the same size as several claimed effects. ``--seed-noise
@@ -20,11 +20,14 @@ from __future__ import annotations
 
 import csv
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from harness import parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import parser, write_results  # noqa: E402
 
 COLUMNS = ("rerender", "normal", "diffuse", "roughness", "specular")
 
