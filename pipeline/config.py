@@ -89,6 +89,10 @@ class SampleConfig(StageConfig):
     swap_share: float = Field(0.35, ge=0, le=1)
     """Share of variants whose relief is replaced by an independent random height field
     (materials.heights.independent_relief), so that relief and colour texture vary independently (#22)."""
+    flat_grain: bool = True
+    """Whether the flat variants (``flat_share``) get the extra grain (``relief``) too. False: they stay truly flat,
+    as a print or paint on a smooth surface is; with True the library holds no flat material at all (its flattest
+    views have the grain's relief), which real prints and polished stone have."""
 
     #: the keys of imported materials; a store without imported stores records the config without them, so that
     #: it is exactly what a plain `svgen sample` writes (the default DVC pipeline passes an empty --from-dir).
@@ -99,6 +103,8 @@ class SampleConfig(StageConfig):
     MODE_KEYS: ClassVar[tuple[str, ...]] = ("flat_share", "swap_share")
     #: the amplitude spread and patchiness of the extra relief, likewise left out of the recorded config at 0.
     SPREAD_KEYS: ClassVar[tuple[str, ...]] = ("relief_spread", "relief_patches")
+    #: whether flat variants get the grain, likewise left out of the recorded config at True (the stores before it).
+    GRAIN_KEYS: ClassVar[tuple[str, ...]] = ("flat_grain",)
 
     @model_validator(mode="after")
     def _only_from_needs_stores(self) -> "SampleConfig":
@@ -112,7 +118,8 @@ class SampleConfig(StageConfig):
     def dropped_keys(self) -> tuple[str, ...]:
         """Keys left out of the recorded config because they are at their no-op value (same bytes as before)."""
         return ((self.RELIEF_KEYS if self.relief == 0 else ())
-                + tuple(k for k in self.MODE_KEYS + self.SPREAD_KEYS if getattr(self, k) == 0))
+                + tuple(k for k in self.MODE_KEYS + self.SPREAD_KEYS if getattr(self, k) == 0)
+                + (self.GRAIN_KEYS if self.flat_grain else ()))
 
 
 class BlendConfig(StageConfig):

@@ -123,6 +123,7 @@ class Relief:
         relief_patches: largest log-amplitude modulation of the band within a variant (0: uniform).
         flat_share: share of variants given flat normals (colour, specular and roughness kept).
         swap_share: share of variants whose relief is replaced by an independent height field.
+        flat_grain: whether the flat variants get the extra band too (False: they stay flat).
     """
 
     relief: float = 0.0
@@ -131,11 +132,12 @@ class Relief:
     swap_share: float = 0.0
     relief_spread: float = 0.0
     relief_patches: float = 0.0
+    flat_grain: bool = True
 
     @classmethod
     def of(cls, cfg: SampleConfig) -> "Relief":
         return cls(cfg.relief, cfg.relief_cycles, cfg.flat_share, cfg.swap_share, cfg.relief_spread,
-                   cfg.relief_patches)
+                   cfg.relief_patches, cfg.flat_grain)
 
     def amplitude(self, seed: int) -> float:
         """The extra relief's RMS slope for the variant of seed ``seed``: ``relief`` x exp(relief_spread x z), z one
@@ -171,7 +173,7 @@ class Relief:
             h = independent_relief(m.size, derive_seed(seed, "sample", (1 << 20) | 2)) if mode == "independent" \
                 else None
             m = materials.SVBRDF(flat if h is None else add_height(flat, h), m.diffuse, m.specular, m.roughness)
-        if self.relief <= 0 or not modes:
+        if self.relief <= 0 or not modes or (mode == "flat" and not self.flat_grain):
             return m
         # key 1 << 20: no index of the sample stream reaches it, so the relief draws are independent of the variants
         h = band_relief(m.size, derive_seed(seed, "sample", 1 << 20), self.relief_cycles, self.amplitude(seed))

@@ -59,7 +59,7 @@ def test_view_normals_are_the_normals_of_the_viewed_height(rotation):
     normals must be the normals of that rotated height. Quarter turns hit texel centres (exact up to float); 0.6 rad
     interpolates bilinearly, hence the looser tolerance (the wrong direction misses by ~0.1)."""
     pytest.importorskip("mitsuba")
-    from pipeline.render.views import ViewParams, transform_maps
+    from storage.views import ViewParams, transform_maps
 
     n = 64
     h = smooth_height(n)
@@ -280,3 +280,26 @@ def test_relief_patches_vary_the_grain_within_a_material_and_keep_its_rms_slope(
     assert np.median(patchy[:, 0]) > 0.7 and patchy[:, 0].max() > 1.0 and patchy[:, 0].min() > 0.45
     np.testing.assert_allclose(patchy[:, 1], 0.06, rtol=0.1)  # the RMS slope (of the normals) is kept
     np.testing.assert_allclose(uniform[:, 1], 0.06, rtol=0.1)
+
+
+def test_flat_variants_stay_flat_without_the_grain_only_when_asked():
+    """``flat_grain`` False: a flat-mode variant has exactly flat normals though the library adds its grain to every
+    other preset variant (real prints and polished stone are flat; with the grain the library holds no flat
+    material). True (the default, the stores before the option): the flat variant gets the grain like the others,
+    and the recorded config leaves the key out, so that stores keep their bytes."""
+    from pipeline.config import SampleConfig
+    from pipeline.sample import Relief
+    from svcore.config import build
+
+    m = maps_of(smooth_height(64))
+    with_grain = Relief.of(build(SampleConfig))
+    flat_only = Relief.of(build(SampleConfig, flat_grain=False))
+    assert with_grain.flat_grain and not flat_only.flat_grain
+    flat_seed = next(s for s in range(100) if with_grain.mode(s) == "flat")
+    own_seed = next(s for s in range(100) if with_grain.mode(s) == "own")
+    np.testing.assert_array_equal(flat_only.apply(m, flat_seed).normal[..., :2], 0.0)
+    assert np.abs(with_grain.apply(m, flat_seed).normal[..., :2]).max() > 0.01  # the grain on a flat variant
+    # every other variant is the same either way
+    np.testing.assert_array_equal(flat_only.apply(m, own_seed).normal, with_grain.apply(m, own_seed).normal)
+    assert "flat_grain" in build(SampleConfig).dropped_keys()
+    assert "flat_grain" not in build(SampleConfig, flat_grain=False).dropped_keys()
