@@ -21,7 +21,7 @@ camera (n.v <= 0, normals tilted > ~65 deg, e.g. beach_sand's view) is black in 
 cosines, as the paper's original code) in torch; see tests/test_stability.py.
 
 Writes benchmarks/results/agreement.json and .csv, and the chart docs/img/chart_agreement.png (through
-benchmarks/charts_agreement.py, which rebuilds it from the JSON alone).
+benchmarks/charts/agreement.py, which rebuilds it from the JSON alone).
 Usage: python3 benchmarks/bench_agreement.py [--quick] [--res 256] [--no-chart].
 """
 from __future__ import annotations
@@ -151,7 +151,7 @@ def main(argv=None) -> int:
     write_csv(out.with_suffix(".csv"), table)
     print(f"agreement floor (centre, 1 spp): {floor['rel_rmse']:.3e} pooled, {floor['rel_rmse_max']:.3e} max")
     if not args.no_chart:
-        from charts_agreement import chart_agreement
+        from charts.agreement import chart_agreement
 
         png = chart_agreement(out.with_suffix(".json"), IMG / "chart_agreement.png")
         print("chart:", png)

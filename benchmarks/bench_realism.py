@@ -87,7 +87,7 @@ def main(argv=None) -> int:
            "stats_wall_s": round(t.wall_s, 1), "report": report}
     update_results(a.out, a.key, res, note=a.note)
     if a.chart:
-        chart(report, a.chart)  # benchmarks/charts_realism.py redraws it from the JSON
+        chart(report, a.chart)  # benchmarks/charts/realism.py redraws it from the JSON
     print(table(report))
     print(f"wrote {a.out} (key {a.key})" + (f" and {a.chart}" if a.chart else ""))
     return 0

@@ -16,7 +16,7 @@ starts; whether it is used at all is decided by a short eager-vs-compiled timing
 
 Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/results/eval_budget.md`` (the
 ``--table-width`` model, by default the compact one, after its budget, model vs baselines) and ``docs/img/chart_training.png``
-(``benchmarks/charts_training.py``).
+(``benchmarks/charts/training.py``).
 
     python3 benchmarks/bench_train_budget.py --table-width 8          # widths 8/16/32 x 10 min (train_budget.json)
     python3 benchmarks/bench_train_budget.py --widths 8 --budget-s 1800 --out benchmarks/results/budget_30min --png ''
@@ -404,7 +404,7 @@ def main(argv=None) -> None:
     write_results(out / "train_budget.json", res, a.note)
     write_csv(out / "train_budget.csv", csv_rows(rows, baselines))
     if a.png:
-        from charts_training import plot
+        from charts.training import plot
 
         plot(out / "train_budget.json", a.png)
     print(f"chosen base width: {chosen}; wrote {out / 'train_budget.json'}", flush=True)

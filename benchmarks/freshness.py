@@ -4,7 +4,7 @@
 code the measurement ran, keyed by its path relative to the repository:
 
 * the benchmark script itself (``benchmarks/bench_x.py``) and the other benchmark modules it imported
-  (``benchmarks/charts_x.py``), one digest per file;
+  (``benchmarks/ablation_effects.py``), one digest per file;
 * each project package it imported (``pipeline/``, ``storage/``, ...: a top-level folder with ``__init__.py``),
   one digest per package over all its files.
 
@@ -12,7 +12,8 @@ Why per top-level package and not one digest of the whole tree: one digest would
 any edit (a training change would flag the material benchmark), and a digest per module would need the import
 graph of every run, worker processes included. A package is what a benchmark exercises as a whole, and what it
 imports is what ran (``sys.modules`` when the results are written). The harness itself (and this module) is left
-out: it writes the figures, it does not make them, and including it would flag every file at once. A script whose
+out: it writes the figures, it does not make them, and including it would flag every file at once; so are the
+chart builders (``benchmarks/charts/``), which draw them. A script whose
 work runs in a subprocess (``svgen ...``) names the packages that subprocess runs (``write_results(code=...)``).
 
 ``python3 benchmarks/stale.py`` recomputes each recorded digest on the checkout: a results file is *stale* when

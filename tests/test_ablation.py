@@ -226,7 +226,7 @@ def test_tiny_grid_through_dvc_experiments(project, renders, monkeypatch):
     assert e["seeds"] == [1, 1] and e["ci95"][0] <= e["mean"] <= e["ci95"][1]
     assert (out.with_suffix(".md")).read_text().count("| blends |") == 1
     monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
-    from charts_ablation import plot
+    from charts.ablation import plot
 
     png = plot(out, d / "chart_ablation.png")  # chart 7 from this grid's results alone
     assert png.stat().st_size > 0 and "| blends |" in png.with_suffix(".md").read_text()

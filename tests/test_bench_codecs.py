@@ -126,7 +126,7 @@ def test_a_lossy_pipeline_fails_the_benchmark(stores, tmp_path, monkeypatch):
 
 def test_chart_draws_from_the_results(run, tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
-    import charts_codecs
+    from charts import codec as charts_codecs
 
     res, out = run
     png = charts_codecs.plot(out / "codecs.json", tmp_path / "chart_codecs.png")

@@ -69,8 +69,8 @@ def test_timed_takes_medians(harness):
 
 
 def test_charts_rebuild_from_committed_results(tmp_path):
-    """benchmarks/charts.py reads every committed results file (old machine keys included) without a benchmark."""
-    r = subprocess.run([sys.executable, str(BENCH / "charts.py"), "--out", str(tmp_path)], cwd=tmp_path,
+    """benchmarks/charts reads every committed results file (old machine keys included) without a benchmark."""
+    r = subprocess.run([sys.executable, str(BENCH / "charts"), "--out", str(tmp_path)], cwd=tmp_path,
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     for name in ("chart_render", "chart_training", "chart_scaleout", "chart_agreement"):

@@ -3,7 +3,7 @@
 Reads the JSON of ``benchmarks/bench_train_budget.py``; baselines are horizontal lines, the compact default is
 drawn heavier, with a star at its end of budget. A DVC charts stage can rebuild the PNG from the JSON alone:
 
-    python3 benchmarks/charts_training.py [benchmarks/results/train_budget.json [docs/img/chart_training.png]]
+    python3 benchmarks/charts/training.py [benchmarks/results/train_budget.json [docs/img/chart_training.png]]
 """
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ import json
 import sys
 from pathlib import Path
 
-from harness import IMG, RESULTS, pyplot, save_figure
+if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py is one folder up
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from harness import IMG, RESULTS, pyplot, save_figure  # noqa: E402
 
 DEFAULT_JSON = RESULTS / "train_budget.json"
 DEFAULT_PNG = IMG / "chart_training.png"
@@ -58,5 +60,5 @@ def plot(json_path=DEFAULT_JSON, png_path=DEFAULT_PNG) -> Path:
 
 if __name__ == "__main__":
     if len(sys.argv) > 3:
-        sys.exit("usage: charts_training.py [TRAIN_BUDGET_JSON [PNG]]")
+        sys.exit("usage: training.py [TRAIN_BUDGET_JSON [PNG]]")
     print(plot(*sys.argv[1:]))

@@ -2,7 +2,7 @@
 "statistics", written by bench_realism.py): histograms of every statistic, svgen's library beside the reference,
 the octave shares of slope power and every distance as a multiple of the reference's noise floor.
 
-Usage: python3 benchmarks/charts_realism.py [realism.json] [out.png]
+Usage: python3 benchmarks/charts/realism.py [realism.json] [out.png]
 """
 from __future__ import annotations
 
@@ -10,7 +10,9 @@ import json
 import sys
 from pathlib import Path
 
-from harness import IMG, RESULTS
+if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py is one folder up
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from harness import IMG, RESULTS  # noqa: E402
 
 DEFAULT_JSON = RESULTS / "realism.json"
 DEFAULT_PNG = IMG / "chart_realism.png"

@@ -1,7 +1,7 @@
 """Rebuild the README's charts from the benchmark results (matplotlib PNG + the plotted data as CSV).
 
-    python3 benchmarks/charts.py                 # docs/img/chart_*.png, benchmarks/results/chart_*.csv
-    python3 benchmarks/charts.py --out runs/charts   # both into one folder (the DVC `charts` stage)
+    python3 benchmarks/charts              # docs/img/chart_*.png, benchmarks/results/chart_*.csv
+    python3 benchmarks/charts --out runs/charts   # both into one folder (the DVC `charts` stage)
 
 1. render: time per view against error to a converged reference (bench_render_quality.py), default marked;
 2. training: held-out re-render RMSE against training wall time per width (bench_train_budget.py);
@@ -10,7 +10,7 @@
 5. stress: the pipeline's stress-suite evaluation beside its held-out one (runs/eval*, written by `dvc repro`);
 6. codecs: bytes per view against CPU-s per view of the store codecs and layouts (bench_codecs.py);
 7. ablation: per claim of the paper, held-out error against training CPU time of both arms with their seed spread,
-   and the effects table beside it (ablation.py, charts_ablation.py).
+   and the effects table beside it (ablation.py, charts/ablation.py).
 A chart whose results file is missing is skipped with a note (run its benchmark first).
 """
 from __future__ import annotations
@@ -20,7 +20,9 @@ import json
 import sys
 from pathlib import Path
 
-from harness import IMG, RESULTS, ROOT, parser, pyplot, save_figure, write_csv
+if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py is one folder up
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from harness import IMG, RESULTS, ROOT, parser, pyplot, save_figure, write_csv  # noqa: E402
 
 plt = pyplot()
 CSV = RESULTS  # --out sends the PNGs and CSVs into one folder
@@ -135,14 +137,14 @@ def main(argv=None) -> int:
     if args.out is not None:
         IMG = CSV = args.out.resolve()
         IMG.mkdir(parents=True, exist_ok=True)
-    made = {"render": chart_render(), "training": _external("charts_training", "plot", "train_budget.json",
+    made = {"render": chart_render(), "training": _external("charts.training", "plot", "train_budget.json",
                                                             "chart_training.png"),
             "scale-out": chart_scaleout(),
-            "agreement": _external("charts_agreement", "chart_agreement", "agreement.json",
+            "agreement": _external("charts.agreement", "chart_agreement", "agreement.json",
                                        "chart_agreement.png"),
             "stress": chart_stress(),
-            "codecs": _external("charts_codecs", "plot", "codecs.json", "chart_codecs.png"),
-            "ablation": _external("charts_ablation", "plot", "ablation.json", "chart_ablation.png")}
+            "codecs": _external("charts.codec", "plot", "codecs.json", "chart_codecs.png"),
+            "ablation": _external("charts.ablation", "plot", "ablation.json", "chart_ablation.png")}
     for name, p in made.items():
         print(f"{name:10s} {p if p else 'skipped: run its benchmark first'}")
     return 0

@@ -5,7 +5,7 @@ Left: relative RMSE of the Mitsuba render against torch's pixel-centre render, p
 independent render against torch's pixel integral (noise only), the dashed line the 1 % contract.
 Right: the same error against Mitsuba's wall time per view; the data stage's default (centre, 1 spp) marked.
 
-Usage: python3 benchmarks/charts_agreement.py [agreement.json] [out.png]
+Usage: python3 benchmarks/charts/agreement.py [agreement.json] [out.png]
 """
 from __future__ import annotations
 
@@ -13,7 +13,9 @@ import json
 import sys
 from pathlib import Path
 
-from harness import IMG, RESULTS, pyplot, save_figure
+if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py is one folder up
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from harness import IMG, RESULTS, pyplot, save_figure  # noqa: E402
 
 DEFAULT_JSON = RESULTS / "agreement.json"
 DEFAULT_PNG = IMG / "chart_agreement.png"

@@ -8,7 +8,7 @@ run with ``--steps`` and no calibration: against steps), the mean over seeds as 
 band. The effects table
 (each claim's mean difference and bootstrap interval per column and suite) is written beside the PNG as markdown.
 
-Usage: python3 benchmarks/charts_ablation.py [ablation.json] [out.png]
+Usage: python3 benchmarks/charts/ablation.py [ablation.json] [out.png]
 """
 from __future__ import annotations
 
@@ -18,8 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ablation_effects import markdown
-from harness import IMG, RESULTS, pyplot, save_figure
+if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py is one folder up
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from ablation_effects import markdown  # noqa: E402
+from harness import IMG, RESULTS, pyplot, save_figure  # noqa: E402
 
 DEFAULT_JSON = RESULTS / "ablation.json"
 DEFAULT_PNG = IMG / "chart_ablation.png"

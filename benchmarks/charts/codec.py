@@ -5,7 +5,7 @@ per view; one point per codec pipeline and layout (marker: today's unsharded chu
 a shard per larger task), colour by family; the issue's aim box (<= 10 ms end to end per view, render included,
 and <= 150 KB per view) drawn; the applied default, the knee and the layout before #12 circled.
 
-Usage: python3 benchmarks/charts_codecs.py [codecs.json] [out.png]
+Usage: python3 benchmarks/charts/codec.py [codecs.json] [out.png]
 """
 from __future__ import annotations
 
@@ -13,7 +13,9 @@ import json
 import sys
 from pathlib import Path
 
-from harness import IMG, RESULTS, pyplot, save_figure
+if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py is one folder up
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from harness import IMG, RESULTS, pyplot, save_figure  # noqa: E402
 
 DEFAULT_JSON = RESULTS / "codecs.json"
 DEFAULT_PNG = IMG / "chart_codecs.png"
