@@ -35,7 +35,8 @@ import torch.nn.functional as F
 from materials import registry
 from materials.maps import pack_maps
 from pipeline.render.scene import FlashScene, scene_constants
-from pipeline.render.views import draw_view, planes_of, svbrdf_of, transform_planes
+from pipeline.render.views import draw_view
+from storage.views import planes_of, svbrdf_of, transform_planes
 from svcore.seeds import rng_for
 from train.render import flash_render
 

@@ -51,7 +51,7 @@ def main() -> None:
         t = time.perf_counter()
         run_render(variants, out, cfg, workers=args.workers)
         wall = time.perf_counter() - t
-        from pipeline.render.store import RendersReader
+        from storage.renders_store import RendersReader
 
         views = len(RendersReader(out))
         c, cv = count(out), count(variants)

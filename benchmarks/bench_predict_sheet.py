@@ -183,7 +183,7 @@ def open_store(path: str | None, what: str, hint: str):
         raise Refused(f"no {what} renders store given ({hint})")
     if not Path(path).is_dir():
         raise Refused(f"no {what} renders store at {path} ({hint})")
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     return RendersReader(path)
 

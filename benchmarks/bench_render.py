@@ -33,8 +33,8 @@ from materials.maps import MAP_SLICES, encode_normal, pack_maps
 from pipeline.config import RenderConfig, SampleConfig
 from pipeline.render.scene import FlashScene
 from pipeline.render.stage import run_render
-from pipeline.render.store import RendersReader
-from pipeline.render.views import planes_of, transform_planes
+from storage.renders_store import RendersReader
+from storage.views import planes_of, transform_planes
 from pipeline.sample import run_sample
 from svcore.config import build
 

@@ -6,7 +6,7 @@ pixel-centre samples) with Mitsuba's ``direct`` integrator, the maps transformed
 magnifies: one bilinear lookup of the base maps per sample, the same in every version of the code), and
 box-averaged K x K: the image is the pixel's mean radiance (then clipped to [0, 1], the stored LDR), the maps the
 area average of the bilinear base maps over the pixel (normals renormalised). A candidate is the stage's own view at
-``res``² (:func:`pipeline.render.views.transform_planes` and :class:`pipeline.render.scene.FlashScene`, point flash,
+``res``² (:func:`storage.views.transform_planes` and :class:`pipeline.render.scene.FlashScene`, point flash,
 pixel-centre sampler, 1 spp) of the code under test.
 
 View kinds (random rotation, shift and light direction; base maps of library presets):
@@ -80,7 +80,7 @@ def candidates(res: int, cs: list[dict], pyramid: str | None = None) -> tuple[np
     """The stage's images (raw radiance clipped to [0, 1]) and maps (packed, 10 channels) of each case;
     ``pyramid``: with the maps of :func:`pyramid_maps` in that mode instead of the stage's transform."""
     from pipeline.render.scene import FlashScene
-    from pipeline.render.views import ViewParams, transform_maps
+    from storage.views import ViewParams, transform_maps
 
     scene = FlashScene(res, 1, "point", "centre")
     imgs, maps = [], []
@@ -96,7 +96,7 @@ def candidates(res: int, cs: list[dict], pyramid: str | None = None) -> tuple[np
 def references(res: int, cs: list[dict]) -> tuple[np.ndarray, np.ndarray]:
     """The supersampled reference image and area-averaged maps of each case (module docstring)."""
     from pipeline.render.scene import FlashScene, mi, scene_dict
-    from pipeline.render.views import ViewParams, transform_maps
+    from storage.views import ViewParams, transform_maps
 
     hi = K * res
     scene = FlashScene(hi, 1, "point", "centre")
@@ -222,7 +222,7 @@ def main(argv=None) -> None:
     ap.add_argument("--candidates", nargs=2, metavar=("CASES_JSON", "OUT_NPZ"), help=argparse_hidden())
     ap.add_argument("--out", default=str(RESULTS / "render_accuracy.json"))
     a = ap.parse_args(argv)
-    from pipeline.mi_env import dr
+    from svcore.mi_env import dr
 
     dr.set_thread_count(1)
     if a.candidates:  # the subprocess of --before: candidates only

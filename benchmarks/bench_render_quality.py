@@ -28,7 +28,8 @@ import numpy as np
 
 from materials import registry
 from pipeline.render.scene import FlashScene, scene_constants
-from pipeline.render.views import draw_view, planes_of, transform_planes
+from pipeline.render.views import draw_view
+from storage.views import planes_of, transform_planes
 from svcore.seeds import rng_for
 
 from harness import RESULTS, parser, timed, write_csv, write_results

@@ -89,7 +89,7 @@ def _loader_rate(path, steps: int, batch: int, workers: int) -> float:
     """Training-loader samples/s over ``steps`` batches (the first batch, worker start-up, excluded)."""
     import time
 
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from train.data import PairDataset, make_loader
 
     src = RendersReader(path)

@@ -10,7 +10,7 @@ measured on another checkout than the one it is written into shows it, with a di
 Writing over an existing results file prints each figure's change against its previous value and flags a
 regression above 20 % (:func:`freshness.compare`).
 
-Nothing here imports torch, drjit or mitsuba: drjit must be imported after ``pipeline.mi_env`` has found libLLVM,
+Nothing here imports torch, drjit or mitsuba: drjit must be imported after ``svcore.mi_env`` has found libLLVM,
 and library versions come from the installed distributions' metadata instead.
 """
 from __future__ import annotations

@@ -176,7 +176,7 @@ class StressConfig(StageConfig):
 #: test holds these names to its LIGHT_MODELS and SAMPLERS, so the config can be read without loading mitsuba).
 LightModel = Literal["point", "sphere"]
 Sampler = Literal["centre", "stratified", "independent"]
-#: the Mitsuba variants svgen renders in (pipeline.mi_env.VARIANTS; a test holds them equal)
+#: the Mitsuba variants svgen renders in (svcore.mi_env.VARIANTS; a test holds them equal)
 MitsubaVariant = Literal["llvm_ad_rgb", "cuda_ad_rgb"]
 
 

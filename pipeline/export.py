@@ -54,7 +54,7 @@ def per_view(name: str):
 
     def deco(write: Writer) -> Writer:
         def run(store, out: Path, limit: int | None) -> int:
-            from .render.store import RendersReader
+            from storage.renders_store import RendersReader
 
             reader = RendersReader(store)
             n = len(reader) if limit is None else min(limit, len(reader))

@@ -15,7 +15,7 @@ columns:
 * ``normal``, ``diffuse``, ``specular``, ``roughness``: 16-bit PNGs in the store's encoding (normal (n + 1) / 2,
   the others linear, no transfer function; roughness grey): 8 bits would band linear albedo in dark colours
   (storage/svbrdf_store.py). A variants store's codes are written as stored (lossless); a view's maps are the base
-  maps under the view's transform (:meth:`~pipeline.render.store.RendersReader.maps`, aligned with the image pixel
+  maps under the view's transform (:meth:`~storage.renders_store.RendersReader.maps`, aligned with the image pixel
   for pixel), quantised to 16 bits like the store's.
 
 Pillow, which `datasets` decodes images with, reads a 16-bit colour PNG as 8 bits (the card says so and how to read
@@ -93,8 +93,8 @@ def _renders(store) -> Source:
     from storage.svbrdf_store import encode_maps
     from svcore.split import split_indices
 
-    from .render.store import RendersReader
-    from .render.views import VIEW_FIELDS, VIEW_LONG_NAMES, VIEW_UNITS
+    from storage.renders_store import RendersReader
+    from storage.views import VIEW_FIELDS, VIEW_LONG_NAMES, VIEW_UNITS
 
     reader = RendersReader(store)
     reader.set_cache_bytes(max(reader.min_cache_bytes(), READ_CACHE_BYTES))

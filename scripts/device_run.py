@@ -21,7 +21,7 @@ where it can):
 6. ``eval_*``: ``svtrain eval`` of each model on the held-out views (``--eval-limit``) and, when ``--reference``
    names an imported materials store, on its render in ``--variant`` (the real-material reference).
 
-Without a libLLVM, drjit has only its CUDA backend: the training loader's crop transform (pipeline.render.views)
+Without a libLLVM, drjit has only its CUDA backend: the training loader's crop transform (storage.views)
 then runs in cuda_ad_rgb in the main process (``data.workers`` 0), which the JSON records.
 """
 from __future__ import annotations
@@ -48,7 +48,7 @@ import json, sys
 sys.path.insert(0, "scripts")
 from device_run import diff_row
 import numpy as np, zarr
-from pipeline.mi_env import use_variant
+from svcore.mi_env import use_variant
 use_variant("llvm_ad_rgb")
 from materials.maps import MAP_NAMES
 from pipeline.config import RenderConfig
@@ -195,7 +195,7 @@ def _env_info() -> dict:
                     gpu=torch.cuda.get_device_name(0) if torch.cuda.is_available() else None)
     except Exception as e:  # noqa: BLE001 (recorded, not fatal)
         info["torch_error"] = str(e)
-    from pipeline.llvm import find_llvm
+    from svcore.llvm import find_llvm
 
     info["libllvm"] = find_llvm()
     for mod in ("mitsuba", "drjit", "zarr", "dask"):

@@ -26,7 +26,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-#: the variants svgen renders in (pipeline.mi_env.VARIANTS; a test holds them equal)
+#: the variants svgen renders in (svcore.mi_env.VARIANTS; a test holds them equal)
 VARIANTS = ("llvm_ad_rgb", "cuda_ad_rgb")
 #: the Mitsuba plugins svgen's scene names (pipeline/render/scene.py), those its loading adds (merge: the scene's
 #: shapes; diffuse: the sphere light's BSDF), and those Mitsuba instantiates when a scene leaves them out

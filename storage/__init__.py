@@ -21,15 +21,16 @@ Modules (one job each):
 * :mod:`storage.store_object`: the commit protocol on object storage;
 * :mod:`storage.objstore`: object-store URLs, s3fs storage options and error translation;
 * :mod:`storage.options`: the ``--storage-option`` command-line option (shared by ``svgen`` and ``svtrain``);
-* :mod:`storage.svbrdf_store`: the schema and reader of the variants, blends and stress stores (the renders
-  store's schema and reader live with the renderer, :mod:`pipeline.render.store`);
+* :mod:`storage.svbrdf_store`: the schema and reader of the variants, blends and stress stores;
+* :mod:`storage.renders_store`: the schema and reader of the renders store (what the training loader reads);
+* :mod:`storage.views`: a renders store's view (:class:`~storage.views.ViewParams`) and the drjit transform that
+  gives its aligned maps, shared by the renderer and the reader;
+* :mod:`storage.srgb8`: the 8-bit sRGB codes of rendered images (numpy, and drjit for the renderer);
 * :mod:`storage.card`: the dataset card (``README.md``) written into every store;
 * :mod:`storage.dataset`: a store as an analysis-ready xarray dataset (labelled coordinates, float32 maps,
   shard-sized chunks, netCDF-writable attributes);
 * :mod:`storage.bounds`: up-front resource checks (memory, disk) of a store about to be written.
 
-Layering: ``storage`` imports ``svcore`` and ``materials`` (map names and encodings), never ``pipeline`` or
-``train`` -- with one named exception, :mod:`storage.card` reading the stage settings' classes
-(:data:`pipeline.config.STAGE_CONFIGS`, a leaf module) to print a store's params.yaml section
-(tests/test_layout.py holds both rules).
+Layering: ``storage`` imports ``svcore`` and ``materials`` (map names and encodings; mitsuba and drjit through
+:mod:`svcore.mi_env`), never ``pipeline`` or ``train``, with no exception (tests/test_layout.py holds it).
 """

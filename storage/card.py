@@ -9,7 +9,7 @@ rest of the store, the card is a function of the seed, code, configuration and i
 Pairing an image with its maps: the aligned maps are not stored, they are the base maps under the view's
 transform. The card states that transform as a formula rather than offering an export of aligned maps: the
 formula costs no bytes (aligned maps at 256² would add 170 KB per view, doubling the store), it is exactly what
-:func:`pipeline.render.views.transform_planes` computes, and a reader who wants the arrays can apply it in a
+:func:`storage.views.transform_planes` computes, and a reader who wants the arrays can apply it in a
 few lines of numpy; ``svgen export --format exr|deschaintre`` already writes aligned maps as files for those who
 prefer files.
 """
@@ -60,7 +60,7 @@ the image side `R`, for output pixel (row i, column j), numpy row 0 at the image
     diffuse, specular, roughness = clip(m, 0, 1)
 
 The base normal is decoded as `code * 2 / 65535 - 1` and renormalised before the lookup. This is
-`pipeline.render.views.transform_planes`, the very function that made the render's textures, so these maps line
+`storage.views.transform_planes`, the very function that made the render's textures, so these maps line
 up with the image pixel for pixel (svgen's tests hold the two together). Why a formula and not a stored copy:
 stored aligned maps would double the store (about 170 KB more per 256² view) for values that are a pure
 function of what is stored; `svgen export RENDERS OUT --format exr` writes them as files when files are wanted."""
@@ -134,13 +134,16 @@ def _command(kind: str, attrs: dict) -> tuple[str, str]:
         kind, (f"(a {kind} store: no svgen command makes it)", kind))
 
 
-def _section(name: str, config: dict) -> dict:
-    """The keys of ``config`` that are settable in a params.yaml section (the rest identify inputs)."""
-    from pipeline.config import STAGE_CONFIGS
+#: keys a stage records in a store's ``config`` beside its params.yaml settings: the inputs' identities (``inputs``
+#: of render, ``materials`` of import, ``from`` of sample, ``source_hash`` of blend) and the integrator render chose.
+#: The card leaves them out of the params.yaml section; tests/test_open_data.py holds that what remains of every
+#: stage's store is exactly the keys of its settings class (``pipeline.config.STAGE_CONFIGS``).
+NOT_SETTINGS = frozenset({"inputs", "materials", "from", "source_hash", "integrator"})
 
-    cls = STAGE_CONFIGS.get(name)
-    keys = set(cls.model_fields) if cls is not None else set(config)
-    return {k: v for k, v in config.items() if k in keys}
+
+def _section(config: dict) -> dict:
+    """The keys of ``config`` that are settable in a params.yaml section (:data:`NOT_SETTINGS` are not)."""
+    return {k: v for k, v in config.items() if k not in NOT_SETTINGS}
 
 
 def _decode(a: dict) -> str:
@@ -238,7 +241,7 @@ def render_card(group) -> str:
         made = ["```", cmd, "```", "", f"with this `{section}:` section of `params.yaml` (the resolved "
                 "configuration; the whole of it, with the inputs' identities, is the store's `config` attribute):"]
     out += ["", "## How it was made", "", *made, "", "```yaml",
-            yaml.safe_dump({section: _section(section, config)}, sort_keys=False, width=120).rstrip(), "```", "",
+            yaml.safe_dump({section: _section(config)}, sort_keys=False, width=120).rstrip(), "```", "",
             "Every sample is a pure function of (the stage's master seed, the sample index) and the code: the same "
             "command gives the same bytes with any number of workers. Seeds: "
             + (", ".join(f"`{k}` = {v}" for k, v in seeds.items()) or "none") + "."]

@@ -110,7 +110,7 @@ def _sample_coords(view, res: int, base: int, ss: int) -> tuple[np.ndarray, np.n
 
 
 def numpy_transform_maps(base: SVBRDF, view, res: int) -> SVBRDF:
-    """Independent float64 numpy reference of pipeline.render.views.transform_maps. Resample tileable base maps into a view: zoom, rotation, shift with wrap-around, normals into screen space.
+    """Independent float64 numpy reference of storage.views.transform_maps. Resample tileable base maps into a view: zoom, rotation, shift with wrap-around, normals into screen space.
 
     Bilinear interpolation with periodic wrap; when the view minifies (more than one base texel per output
     pixel) each pixel averages ceil(texels per pixel)^2 bilinear subsamples (a box prefilter against aliasing).

@@ -114,7 +114,7 @@ def test_every_loss_weight_zero_is_refused_in_one_line():
 
 
 def test_variants_only_drops_exactly_the_blends_and_keeps_the_heldout_views(renders):
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from train.config import resolve
     from train.data import split_for
 
@@ -133,7 +133,7 @@ def test_variants_only_drops_exactly_the_blends_and_keeps_the_heldout_views(rend
 
 
 def test_split_seed_not_training_seed_chooses_the_split(renders):
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from train.config import resolve
     from train.data import split_for
 
@@ -189,7 +189,7 @@ def project(tmp_path_factory, renders):
 
 @pytest.mark.slow  # 2 DVC experiments of 2 stages each: ~40 s quiet, minutes on the shared 2 cores
 def test_tiny_grid_through_dvc_experiments(project, renders, monkeypatch):
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from train.config import resolve
     from train.data import split_for
 

@@ -3,7 +3,7 @@
 Issue #4: "for the same SVBRDF and light, the torch render of the capture scene and the Mitsuba render differ
 by <= 1 % relative RMSE". Here, for real presets of the materials library (glossy metal, rough diffuse, glossy
 plastic, dark leather, clipped brushed steel, bumpy stone) in an identity view and a rotated + zoomed + shifted
-view (maps from :func:`pipeline.render.views.transform_maps`, exactly what the data stage renders with):
+view (maps from :func:`storage.views.transform_maps`, exactly what the data stage renders with):
 
     rel RMSE = sqrt(mean((torch - mitsuba)^2)) / sqrt(mean(mitsuba^2))
 
@@ -51,7 +51,7 @@ from materials import get_preset
 from materials.capture import FLASH_INTENSITY
 from materials.maps import pack_maps
 from pipeline.render.scene import FlashScene
-from pipeline.render.views import ViewParams, transform_maps
+from storage.views import ViewParams, transform_maps
 from train.render import flash_render
 
 RES = 64

@@ -55,7 +55,7 @@ def test_eval_metrics_are_zero_for_the_ground_truth_and_exact_for_a_known_offset
 
 def test_export_writes_the_deschaintre_layout_that_matches_the_store(stores, tmp_path, svgen_cli):
     from materials.maps import encode_normal
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     code, err = svgen_cli("export", stores / "r.zarr", tmp_path / "ds", "--format", "deschaintre")
     assert code == 0, err
@@ -97,7 +97,7 @@ def test_export_refuses_an_existing_output_unless_force_and_replaces_only_an_exp
     assert sorted(p.name for p in old.iterdir()) == ["0000000"]  # the png export, as it was
     code, out = svgen_cli("export", r, old, "--force")
     assert code == 0, out
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     n = len(RendersReader(r))
     assert sorted(p.name for p in old.iterdir()) == sorted(f"{i:07d}.{e}" for i in range(n) for e in ("png", "json"))
@@ -178,7 +178,7 @@ def test_the_sphere_light_converges_to_the_point_light(monkeypatch):
     against the point render's pixel centres)."""
     import pipeline.render.scene as S
     from materials.maps import SVBRDF
-    from pipeline.render.views import ViewParams
+    from storage.views import ViewParams
 
     res, view = 32, ViewParams(0.3, -0.2)
     m = SVBRDF(normal=np.tile(np.array([0, 0, 1], np.float32), (res, res, 1)),

@@ -96,7 +96,7 @@ def test_sheet_is_rows_by_columns_of_tiles(sheet):
 def test_input_and_truth_rerender_columns(inputs, sheet):
     """Input: the stored view's centre crop, sRGB-encoded; truth re-render: a numpy render of the stored maps under
     the moved light (independent of train/render.py), each to 8-bit rounding."""
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     img, res = sheet
     src = RendersReader(inputs / "r.zarr")

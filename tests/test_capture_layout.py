@@ -41,7 +41,7 @@ def test_plugin_planes_and_torch_slices_read_the_same_channels():
     """The Mitsuba planes (pack -> planes -> maps) and the torch renderer's slices address the same maps."""
     import torch
 
-    from pipeline.render.views import planes_of, svbrdf_of
+    from storage.views import planes_of, svbrdf_of
     from train.brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
 
     m = _maps(np.random.default_rng(1), 6, 6)

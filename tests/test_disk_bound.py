@@ -58,7 +58,7 @@ def test_blend_beyond_the_free_disk_is_refused_in_one_line_and_writes_nothing(va
 def test_paper_scale_render_estimate_names_the_expected_size(tmp_path):
     """At the paper's scale (21,836 SVBRDFs x 10 views at 288²) the estimate is the size of the store to expect,
     tens of GB (render.json measures 1.93x compression of a renders store's raw bytes), not the 1/64 floor."""
-    from pipeline.render.store import array_specs as render_specs
+    from storage.renders_store import array_specs as render_specs
 
     per = bounds.sample_bytes(render_specs(10, 288, 288))
     n = 1836 + 20000

@@ -98,7 +98,7 @@ def test_renders_export_splits_images_and_aligned_maps(stores, tmp_path):
     import datasets
 
     from pipeline.export_parquet import write_parquet
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     r = RendersReader(stores / "r.zarr")
     test = set(r.stored_split()["test_materials"])

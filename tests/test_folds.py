@@ -30,7 +30,7 @@ def test_folds_refuse_impossible_counts():
 def test_leak_check_on_a_rendered_fold_store(tmp_path, svgen_cli):
     """Import real-format materials, render one fold's training store from the others: the check passes for the
     fold it was built for and fails when one evaluated material is leaked into training on purpose."""
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from tests.import_fixtures import ambientcg, bumpy_normals
 
     rng = np.random.default_rng(0)

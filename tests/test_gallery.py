@@ -177,7 +177,7 @@ def test_thumbnails_are_the_maps_and_views_for_display(page, stores):
     """Diffuse/specular/views sRGB-encoded from linear (colour-science), normals (n + 1) / 2, roughness grey."""
     import colour
 
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from storage.svbrdf_store import SVBRDFStore
 
     def png(rel):

@@ -182,7 +182,7 @@ def strip_of(image, maps_n, diff, rough, spec):
 
 
 def test_deschaintre_strip_variants_and_renders(tmp_path, rng):
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     t = 32
     img, diff, spec = rng.random((t, t, 3)), rng.random((t, t, 3)), rng.random((t, t, 3)) * 0.5
@@ -209,7 +209,7 @@ def test_roundtrip_with_export(tmp_path):
     from pipeline.config import SampleConfig
     from pipeline.export import export
     from pipeline.render.stage import RenderConfig, run_render
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from pipeline.sample import run_sample
 
     run_sample(tmp_path / "v.zarr", build(SampleConfig, "tiny", presets=("paint/glossy_red", "wood/oak_planks"),
@@ -261,7 +261,7 @@ def test_same_bytes_for_any_worker_count_and_resume(tmp_path, rng, monkeypatch):
 
 
 def test_mixed_sizes_upscale_and_input_space(tmp_path, svgen_cli, rng):
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     d = tmp_path / "src" / "mixed"
     d.mkdir(parents=True)

@@ -85,7 +85,7 @@ def test_xarray_decodes_svbrdf_stores_as_svgen_reads_them(stores, name):
 def test_xarray_decodes_renders_as_svgen_reads_them(stores):
     import colour
 
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     path = stores / "renders.zarr"
     r = RendersReader(path)
@@ -119,7 +119,7 @@ def test_imported_renders_store_opens_with_xarray(stores, tmp_path):
     """`svgen import --as renders` (the 2018 strips) writes a renders store: xarray opens it too."""
     from import_fixtures import png8
     from pipeline.cli import cli
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     t, rng = 16, np.random.default_rng(5)
     tiles = [rng.random((t, t, 3)), (bumpy_normals(t, rng) + 1) / 2, rng.random((t, t, 3)),
@@ -148,7 +148,7 @@ def test_every_array_has_dimension_names_and_the_store_metadata_only_changed(sto
 
 # -- the held-out split -------------------------------------------------------------------------------------------
 def test_the_stored_split_equals_the_computed_one(stores):
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from svcore.split import DEFAULT_HOLDOUT, DEFAULT_SEED, held_out_names
     from train.data import split_by_source
 
@@ -178,7 +178,7 @@ def _with_split(src: Path, dst: Path, test_materials: list[str]) -> Path:
 def test_training_and_eval_read_the_stored_split(stores, tmp_path):
     """The split comes from the store, not from the code, when the holdout and seed match the record; other
     values compute it."""
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from train.data import split_by_source
 
     orig = RendersReader(stores / "renders.zarr").stored_split()["test_materials"]
@@ -236,6 +236,24 @@ def test_every_finished_store_has_its_card(stores, name, svgen_cli):
     assert code == 0 and out == text
 
 
+@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+def test_the_cards_params_section_is_the_stages_settings(stores, name):
+    """The card prints a store's params.yaml section from the store alone (storage imports no pipeline config,
+    #41): the recorded config less storage.card.NOT_SETTINGS. What remains must be exactly the settings class's
+    keys that the stage recorded, so a stage that records a new non-setting key fails here until it is named."""
+    from pipeline.config import STAGE_CONFIGS
+    from storage.card import NOT_SETTINGS, _command, _section
+
+    attrs = json.loads((stores / f"{name}.zarr" / "zarr.json").read_text())["attributes"]
+    _, section = _command(attrs["svgen"]["kind"], attrs)
+    fields = set(STAGE_CONFIGS[section].model_fields)
+    assert not NOT_SETTINGS & fields  # a setting is never left out
+    config = attrs["config"]
+    assert _section(config) == {k: v for k, v in config.items() if k in fields}
+    text = (stores / f"{name}.zarr" / "README.md").read_text()
+    assert yaml.safe_dump({section: _section(config)}, sort_keys=False, width=120).rstrip() in text
+
+
 def test_card_write_regenerates_it(stores, tmp_path, svgen_cli):
     from storage.store import verify_store
 
@@ -276,7 +294,7 @@ def readme_example() -> str:
 
 
 def test_the_readme_example_runs_and_reads_what_svgen_reads(stores):
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     code = readme_example()
     assert len(code.strip().splitlines()) <= 6 and '"data/renders.zarr"' in code

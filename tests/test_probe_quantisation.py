@@ -13,7 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "experiments" / "quantisation"))
 import probe_quantisation as pq  # noqa: E402
 
-from pipeline.render.encoding import decode_srgb8, encode_srgb8  # noqa: E402
+from storage.srgb8 import decode_srgb8, encode_srgb8  # noqa: E402
 from svcore.image_io import srgb_decode, srgb_encode  # noqa: E402
 
 

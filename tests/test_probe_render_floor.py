@@ -19,7 +19,9 @@ RES = 64
 def test_intersect_step_sees_the_pixel_centre_texel():
     # DESIGN's capture scene: film column j sees plane u in [j/res, (j+1)/res]; the centre sampler shades its
     # middle. float32 uv of a 2-unit plane carries ~1e-7 error: 1e-5 is 100x that, a tenth of a texel is 1.6e-3.
-    from pipeline.render.views import draw_views, planes_of, transform_planes
+    from storage.views import planes_of, transform_planes
+
+    from pipeline.render.views import draw_views
     import materials
 
     scene = prf.probe_scene(RES, "intersect")

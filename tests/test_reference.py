@@ -38,7 +38,7 @@ def test_reference_stages_skip_when_no_sources(tmp_path):
 
 
 def test_tiny_reference_store_and_its_evaluation(reference_dir, tmp_path, svgen_cli):
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from storage.svbrdf_store import SVBRDFStore
     from test_train_cli import SMALL, run
 

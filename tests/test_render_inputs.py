@@ -7,7 +7,7 @@ import numpy as np
 
 from pipeline.config import BlendConfig, RenderConfig, SampleConfig, StressConfig
 from pipeline.render.stage import run_render
-from pipeline.render.store import RendersReader
+from storage.renders_store import RendersReader
 from pipeline.stress import EDGE_LIGHT_RADIUS, run_stress
 from storage.svbrdf_store import SVBRDFStore
 from svcore.config import build

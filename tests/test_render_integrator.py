@@ -7,7 +7,7 @@ import pytest
 from render_helpers import checker_svbrdf
 
 from pipeline.render.scene import FlashScene, scene_dict
-from pipeline.render.views import ViewParams, transform_maps
+from storage.views import ViewParams, transform_maps
 
 #: relative tolerance, with an absolute floor of 1e-3 of the radiance. The two integrators shade the same hit with the
 #: same BSDF, light and sampler; only the hit point's float32 rounding differs (Embree's ray-triangle code vs the

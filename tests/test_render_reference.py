@@ -11,7 +11,7 @@ from render_helpers import checker_svbrdf
 from materials.brdf_reference import render_point_flash
 from materials.capture import CAMERA_DISTANCE, FLASH_INTENSITY
 from pipeline.render.scene import FlashScene
-from pipeline.render.views import ViewParams, transform_maps
+from storage.views import ViewParams, transform_maps
 
 VIEWS = [ViewParams(light_x=0.3, light_y=-0.2, seed=3), ViewParams(light_x=-0.5, light_y=0.45, seed=4)]
 

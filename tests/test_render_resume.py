@@ -12,7 +12,7 @@ import pytest
 
 from conftest import chunk_stats, tree_digest
 from pipeline.config import SampleConfig
-from pipeline.render.store import RendersReader
+from storage.renders_store import RendersReader
 from pipeline.sample import run_sample
 from storage.store import DONE_DIR, partial_path
 from svcore.config import build

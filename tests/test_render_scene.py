@@ -10,7 +10,7 @@ from render_helpers import checker_svbrdf
 
 from materials.maps import SVBRDF
 from pipeline.render.scene import FlashScene
-from pipeline.render.views import ViewParams, planes_of, transform_maps
+from storage.views import ViewParams, planes_of, transform_maps
 
 import drjit as dr  # noqa: E402  (pipeline.render has configured drjit)
 

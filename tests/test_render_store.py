@@ -8,10 +8,10 @@ import zarr
 
 from conftest import tree_digest
 from pipeline.config import RenderConfig, SampleConfig
-from pipeline.render.encoding import _thresholds, decode_srgb8, encode_srgb8, encode_srgb8_reference
+from storage.srgb8 import _thresholds, decode_srgb8, encode_srgb8, encode_srgb8_reference
 from pipeline.render.scene import FlashScene
 from pipeline.render.stage import run_render
-from pipeline.render.store import RendersReader
+from storage.renders_store import RendersReader
 from pipeline.sample import run_sample
 from storage.store import StoreWriter, write_chunk
 from storage.svbrdf_store import encode_maps, map_specs

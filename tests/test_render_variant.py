@@ -10,7 +10,7 @@ import pytest
 import zarr
 
 from conftest import tree_digest
-from pipeline import mi_env
+from svcore import mi_env
 from pipeline.config import MitsubaVariant, RenderConfig, SampleConfig
 from pipeline.render.stage import render_stage, run_render
 from pipeline.sample import run_sample

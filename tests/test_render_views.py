@@ -10,8 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from render_helpers import checker_svbrdf, numpy_transform_maps
 
+from storage.views import ViewParams, transform_maps
+
 from pipeline.render import views as V
-from pipeline.render.views import ViewParams, draw_view, draw_views, transform_maps
+from pipeline.render.views import draw_view, draw_views
 
 MAPS = ("normal", "diffuse", "specular", "roughness")
 

@@ -30,10 +30,10 @@ import numpy as np
 sys.path.insert(0, {site!r})
 import mitsuba
 assert mitsuba.__file__.startswith({site!r}), mitsuba.__file__
-from pipeline.mi_env import load_mitsuba
+from svcore.mi_env import load_mitsuba
 mi = load_mitsuba("llvm_ad_rgb")
 from pipeline.render.scene import FlashScene
-from pipeline.render.views import ViewParams
+from storage.views import ViewParams
 sys.path.insert(0, {tests!r})
 from render_helpers import checker_svbrdf
 maps = checker_svbrdf(16, cells=4)
@@ -105,7 +105,7 @@ def test_the_slim_install_renders_svgens_scene_as_the_full_one_does(slim_install
     got = json.loads(r.stdout.strip().splitlines()[-1])
     assert got["variant"] == "llvm_ad_rgb" and got["file"].startswith(str(site)), got
     from pipeline.render.scene import FlashScene
-    from pipeline.render.views import ViewParams
+    from storage.views import ViewParams
     from render_helpers import checker_svbrdf
 
     maps, view = checker_svbrdf(16, cells=4), ViewParams(light_x=0.1, light_y=-0.2, seed=7)
@@ -134,6 +134,6 @@ def test_lzma_members_install_through_pip(tmp_path):
 
 
 def test_the_variants_are_those_svgen_renders_in():
-    from pipeline.mi_env import VARIANTS
+    from svcore.mi_env import VARIANTS
 
     assert slim_wheel.VARIANTS == VARIANTS

@@ -350,7 +350,7 @@ def test_flash_render_edges(light_xy):
     finite, and equal where defined. The light is always above the plane here; (3, 0) puts it far outside
     the picture (grazing light at the left edge)."""
     from pipeline.render.scene import FlashScene
-    from pipeline.render.views import ViewParams
+    from storage.views import ViewParams
 
     res = 32
     packed = _edge_maps(res, np.random.default_rng(7))

@@ -282,7 +282,7 @@ def test_loader_workers_read_s3_like_local(s3, tmp_path):
     a local store gives."""
     import torch
 
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from train.data import PairDataset, make_loader
 
     url, local = _tiny_renders(s3, tmp_path)

@@ -16,7 +16,7 @@ from conftest import chunk_stats, tree_digest
 from s3_fixtures import s3, s3_server  # noqa: F401  (fixtures)
 from pipeline.config import RenderConfig, SampleConfig
 from pipeline.render.stage import run_render
-from pipeline.render.store import RendersReader
+from storage.renders_store import RendersReader
 from pipeline.sample import run_sample
 from storage.store import DONE_DIR, MANIFEST, SMALL_SAMPLE_BYTES, open_store, partial_path, verify_store
 from svcore.config import build

@@ -9,7 +9,7 @@ import zarr
 from pipeline.config import RenderConfig, SampleConfig
 from pipeline.render import scene as scene_module
 from pipeline.render.stage import render_writer, run_render
-from pipeline.render.store import RendersReader
+from storage.renders_store import RendersReader
 from pipeline.sample import run_sample
 from storage import local as S
 from storage.store import open_store

@@ -49,7 +49,7 @@ def _eval(d, out, *args):
 
 
 def _views(store) -> int:
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     return len(RendersReader(store))
 

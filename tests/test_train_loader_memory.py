@@ -14,7 +14,7 @@ from materials import presets
 from materials.maps import MAP_NAMES
 from pipeline.config import RenderConfig, SampleConfig
 from pipeline.render.stage import run_render
-from pipeline.render.store import RendersReader
+from storage.renders_store import RendersReader
 from pipeline.sample import run_sample
 from svcore.config import build
 from svcore.errors import ConfigError

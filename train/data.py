@@ -2,7 +2,7 @@
 
 A *source* is anything with ``__len__``, ``image(i) -> (H, W, 3) float32``, ``maps(i) -> SVBRDF``
 (aligned with the image pixel for pixel) and ``source(i)`` (the material/preset ids it came from):
-the renders store reader of ``pipeline.render.store`` or :class:`train.synthetic.SyntheticSource`.
+the renders store reader of ``storage.renders_store`` or :class:`train.synthetic.SyntheticSource`.
 
 Determinism: the batch of step t is a pure function of (seed, t): sample *position* p = t·B + b
 selects index ``perm_e[p mod N]`` with ``perm_e`` the permutation of epoch e = p // N, and the crop and
@@ -279,7 +279,7 @@ def open_source(data_cfg) -> Source:
         # no existence check here: open_store says "does not exist", or "incomplete ... rerun to resume" where
         # an interrupted run left <store>.partial, the same line as svgen
         try:
-            from pipeline.render.store import RendersReader
+            from storage.renders_store import RendersReader
         except ImportError as e:
             raise StoreError(f"cannot read renders stores on this install ({e})") from None
         return RendersReader(data_cfg.store)

@@ -1,6 +1,6 @@
 """The training loader's memory: one budget for the whole run, shared by its processes.
 
-A renders store reader keeps caches (decoded chunks, base maps as planes: :class:`pipeline.render.store.RendersReader`)
+A renders store reader keeps caches (decoded chunks, base maps as planes: :class:`storage.renders_store.RendersReader`)
 and every loader worker holds its own copy of the reader, so a per-reader budget multiplies with ``data.workers``
 (and with the data-parallel processes on the machine). Here ``data.loader_memory_mib`` is the run's total on this
 machine: it is divided among the ``local_size x (workers + 1)`` processes that read (each rank's main process reads

@@ -7,7 +7,7 @@ the question that decides whether that is worth it, from the renders themselves,
 For each view of a renders store it renders the view's own maps twice under the view's flash (the store's scene,
 linear, clipped to [0, 1] as stored): with their normals, I, and with flat normals, I_flat. The relief's imprint on
 the photo is S = I - I_flat. The noise that storage adds to the photo is q_b(I) - I, with q_b the store's
-encoding at b bits (8: the stored 8-bit sRGB code, ``pipeline.render.encoding``; 16: the same curve at 65535
+encoding at b bits (8: the stored 8-bit sRGB code, ``storage.srgb8``; 16: the same curve at 65535
 steps). Both are measured in the linear image and in the network's input space (``train.net``'s log mapping,
 where dark pixels are stretched). The figure of merit per view is the relief-to-quantisation ratio in dB,
 10 log10(sum S^2 / sum (q_b(I) - I)^2): far above 0 dB, quantisation cannot be what hides the relief. Beside the
@@ -50,7 +50,7 @@ def quantise(linear: np.ndarray, bits: int) -> np.ndarray:
     (colour-science, via ``svcore.image_io``) at 65535 steps.
     """
     if bits == 8:
-        from pipeline.render.encoding import decode_srgb8, encode_srgb8
+        from storage.srgb8 import decode_srgb8, encode_srgb8
 
         return decode_srgb8(encode_srgb8(linear))
     from svcore.image_io import srgb_decode, srgb_encode
@@ -82,7 +82,7 @@ def measure(path: str, views: int, min_tilt: float) -> dict:
     import dataclasses
 
     from pipeline.render.scene import FlashScene
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     r = RendersReader(path)
     cfg = r.attrs["config"]

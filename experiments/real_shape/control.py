@@ -93,7 +93,7 @@ def build_stores(a, work: Path, log: Path) -> list[list[str]]:
 
 
 def store_materials(store: Path) -> list[tuple[str, ...]]:
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     return RendersReader(str(store)).source_presets()
 

@@ -48,7 +48,7 @@ STEPS = {"camera": "camera rays and film", "intersect": "+ scene.ray_intersect (
 
 def register_probe_integrators():
     """Register the probe's integrators (``svgen_probe_<step>``); returns the mitsuba module."""
-    from pipeline.mi_env import mi
+    from svcore.mi_env import mi
 
     class Partial(mi.SamplingIntegrator):
         """camera / intersect / light: the render call stopped after that step."""
@@ -94,7 +94,9 @@ def probe_scene(res: int, step: str):
 def agreement(res: int, views: int, presets: int = 15) -> dict:
     """``shape_intersect`` against ``direct`` on views of evenly spaced presets of the library."""
     import materials
-    from pipeline.render.views import draw_views, planes_of, transform_planes
+    from storage.views import planes_of, transform_planes
+
+    from pipeline.render.views import draw_views
 
     direct, shape = probe_scene(res, "direct"), probe_scene(res, "shape_intersect")
     names = materials.presets()
@@ -136,9 +138,9 @@ def _interleaved_cpu_ms(items: dict, calls: int, rounds: int) -> dict:
 def measure(res: int, calls: int, rounds: int) -> dict:
     """CPU ms per call of each step, the transform at 1 and 2 subsamples and the encoding, at ``res``²."""
     import materials
-    from pipeline.mi_env import dr, mi
-    from pipeline.render.encoding import DrjitEncoder
-    from pipeline.render.views import ViewParams, planes_of, supersampling, transform_planes
+    from svcore.mi_env import dr, mi
+    from storage.srgb8 import DrjitEncoder
+    from storage.views import ViewParams, planes_of, supersampling, transform_planes
 
     base = planes_of(materials.presets()[0].generate(None, res, 0))
     views = {ss: ViewParams(light_x=0.3, light_y=-0.2, zoom=z, rotation=0.7, shift_u=0.25, shift_v=0.6, seed=5)
@@ -179,7 +181,7 @@ def main(argv=None) -> None:
     ap.add_argument("--agreement-views", type=int, default=45)
     ap.add_argument("--out", default=str(RESULTS / "render_floor.json"))
     a = ap.parse_args(argv)
-    from pipeline.mi_env import dr
+    from svcore.mi_env import dr
 
     dr.set_thread_count(1)
     results = {}

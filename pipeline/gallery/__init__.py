@@ -194,7 +194,7 @@ class _Source:
 
 def _section(src: _Source, k: int, reference: bool, out: Path, max_n: int, seed: int, thumb: int) -> Section:
     """Read the shown SVBRDFs of store ``src`` and write their thumbnails under ``out/thumbs/s<k>``."""
-    from ..render.encoding import decode_srgb8
+    from storage.srgb8 import decode_srgb8
     from storage.svbrdf_store import decode_maps
 
     path = src.path

@@ -84,7 +84,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource
         for k, v in encode_maps(svbrdf).items():
             maps[k].append(v)
         if image is not None:
-            from ..render.encoding import encode_srgb8
+            from storage.srgb8 import encode_srgb8
 
             images.append(encode_srgb8(image)[None])
         records.append(rec)
@@ -93,7 +93,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, mats: list[MaterialSource
     data["seed"] = np.array([zlib.crc32(m.name.encode()) for m in mats[start:stop]], np.uint64)
     data["preset"] = np.array([[i, -1] for i in range(start, stop)], np.int32)
     if cfg.as_kind == "renders":
-        from ..render.views import ViewParams  # loads mitsuba: only for renders stores
+        from storage.views import ViewParams  # loads mitsuba: only for renders stores
 
         data["image"] = np.stack(images)
         data["view"] = np.tile(ViewParams(light_x=0.0, light_y=0.0).as_array(), (n, 1, 1))
@@ -141,14 +141,14 @@ def import_stage(cfg: ImportConfig) -> tuple[Stage, list]:
     fixed = {"presets": names, "param_names": {}, "categories": []}
     if cfg.as_kind == "renders":
         from ..render.scene import scene_constants
-        from ..render.store import KIND, array_specs
+        from storage.renders_store import KIND, array_specs
 
         size = cfg.size
         arrays = array_specs(1, size, size)
         fixed.update({"scene": {**scene_constants(), "light_model": "unknown (photographs from the 2018 strips)",
                                 "output": f"the strips' input tiles, read as {cfg.input_space}"},
                       "view_distribution": {"identity": "zoom 1, rotation 0, shift 0; light position unknown (0, 0)"},
-                      "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)"})
+                      "aligned_maps": "recomputed: storage.views.transform_maps(base maps, view, res)"})
         kind = KIND
     else:
         arrays = svbrdf_array_specs("variants", cfg.size, 0)  # no params: imported materials have none

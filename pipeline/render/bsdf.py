@@ -12,12 +12,12 @@ The specular term is evaluated as ``D F / (4 (NL(1-k)+k) (NV(1-k)+k))``: algebra
 G cancel the 1/(4 NL NV)), but its denominator is >= k^2 > 0, so nothing divides by a cosine that reaches 0.
 
 Textures: the four maps are 10 channel planes, each a flat float buffer of H*W texels (:data:`CHANNELS`, the
-packed layout of :mod:`materials.maps`; see :func:`to_planes`), looked up with nearest filtering from the surface
-uv: column ``floor(u W)``, numpy row ``floor((1 - v) H)`` -- a Mitsuba ``rectangle`` has v = 0 at its bottom edge
-(y = -1), while numpy row 0 is the image top. Ten gathers are far cheaper than four bitmap textures, and the planes are
-exposed to ``mi.traverse`` as ``tex_<channel>`` so a loaded scene takes new maps without recompiling its kernel
-(a buffer is a kernel input, not a literal). Planes, not one interleaved buffer: a transform kernel can then
-write all channels as separate outputs of one kernel, with no scatter.
+packed layout of :mod:`materials.maps`; see :func:`storage.views.to_planes`), looked up with nearest filtering
+from the surface uv: column ``floor(u W)``, numpy row ``floor((1 - v) H)`` -- a Mitsuba ``rectangle`` has v = 0
+at its bottom edge (y = -1), while numpy row 0 is the image top. Ten gathers are far cheaper than four bitmap
+textures, and the planes are exposed to ``mi.traverse`` as ``tex_<channel>`` so a loaded scene takes new maps
+without recompiling its kernel (a buffer is a kernel input, not a literal). Planes, not one interleaved buffer:
+a transform kernel can then write all channels as separate outputs of one kernel, with no scatter.
 
 Normal map: a texel's normal n (tangent space: x right, y up, z out) is expressed in the surface's local frame,
 which for the plane of the capture scene is (s, t, n) = (+x, +y, +z) = (image right, image up, to the camera).
@@ -33,14 +33,16 @@ from __future__ import annotations
 import numpy as np
 
 from materials.capture import ALPHA_MIN, FRESNEL_SG_A, FRESNEL_SG_B, NORMAL_Z_MIN
-from materials.maps import CHANNEL_NAMES, MAP_SLICES, N_CHANNELS, SVBRDF, pack_maps
+from materials.maps import CHANNEL_NAMES, MAP_SLICES, SVBRDF, pack_maps
 
-from ..mi_env import load_mitsuba
+from svcore.mi_env import load_mitsuba
+
+from storage.views import to_planes
 
 mi = load_mitsuba()
 import drjit as dr  # noqa: E402  (after load_mitsuba: drjit must see the libLLVM path first)
 
-#: the variant this module's BSDF class belongs to (the current one at import: pipeline.mi_env.use_variant)
+#: the variant this module's BSDF class belongs to (the current one at import: svcore.mi_env.use_variant)
 VARIANT = mi.variant()
 
 PLUGIN_NAME = "svgen_ggx"
@@ -49,18 +51,6 @@ CHANNELS = CHANNEL_NAMES
 #: smallest probability of choosing the specular lobe (it is never exactly zero: F -> 1 at grazing angles).
 SPEC_PROB_MIN = 0.1
 _INV_PI = 1.0 / np.pi
-
-
-def to_planes(packed: np.ndarray) -> np.ndarray:
-    """The plugin's channel planes of packed maps.
-
-    Args:
-        packed: (H, W, 10) maps in the packed layout (:func:`materials.maps.pack_maps`).
-
-    Returns:
-        (10, H * W) float32 planes in :data:`CHANNELS` order, texels row-major with numpy row 0 = image top.
-    """
-    return np.ascontiguousarray(packed.reshape(-1, N_CHANNELS).T)
 
 
 def _schlick_sg(s, vh):
@@ -121,8 +111,8 @@ class GGXBSDF(mi.BSDF):
         normal (3-vector): constant tangent-space normal (default (0, 0, 1)); renormalised.
 
     Traversable parameters:
-        tex_nx ... tex_rough (Float, H*W each): the channel planes of :func:`to_planes`; replace them through
-        ``mi.traverse(scene)`` with planes of the same resolution.
+        tex_nx ... tex_rough (Float, H*W each): the channel planes of :func:`~storage.views.to_planes`; replace them
+        through ``mi.traverse(scene)`` with planes of the same resolution.
     """
 
     def __init__(self, props):

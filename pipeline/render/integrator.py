@@ -18,7 +18,7 @@ Only for the point flash: a sphere flash uses MIS with BSDF samples, whose rays 
 """
 from __future__ import annotations
 
-from ..mi_env import dr, mi
+from svcore.mi_env import dr, mi
 
 PLUGIN_NAME = "svgen_plane_flash"
 

@@ -33,7 +33,7 @@ from materials.maps import SVBRDF
 
 from . import bsdf as _bsdf
 from . import integrator as _integrator
-from .views import ViewParams, planes_of, transform_planes
+from storage.views import ViewParams, planes_of, transform_planes
 
 mi = _bsdf.mi
 dr = _bsdf.dr
@@ -170,8 +170,8 @@ class FlashScene:
 
     def render_planes_srgb8(self, planes: list, light_xy: tuple[float, float], seed: int) -> np.ndarray:
         """As :meth:`render_planes` (clipped), but returns the stored encoding: (res, res, 3) uint8 sRGB codes,
-        encoded by drjit before the image leaves it (see :class:`pipeline.render.encoding.DrjitEncoder`)."""
-        from .encoding import DrjitEncoder
+        encoded by drjit before the image leaves it (see :class:`storage.srgb8.DrjitEncoder`)."""
+        from storage.srgb8 import DrjitEncoder
 
         if self._encoder is None:
             self._encoder = DrjitEncoder()

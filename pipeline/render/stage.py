@@ -49,7 +49,9 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
     Returns:
         images (V, R, R, 3) uint8 sRGB codes; views (V, 7) float64 view parameters.
     """
-    from .views import R_MAX, R_MIN, draw_views, planes_of, transform_planes
+    from storage.views import planes_of, transform_planes
+
+    from .views import R_MAX, R_MIN, draw_views
 
     base = planes_of(maps)
     b = maps.normal.shape[0]
@@ -64,10 +66,10 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
 def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], cfg: RenderConfig, n: int) -> int:
     """Worker: render the SVBRDFs of chunk c and write the whole chunk. Returns the number of views."""
     from storage.svbrdf_store import SVBRDFInputs, decode_maps
-    from ..mi_env import use_variant
+    from svcore.mi_env import use_variant
 
     use_variant(cfg.variant)  # before the scene's modules load: a worker process renders in the run's variant
-    from ..mi_env import dr
+    from svcore.mi_env import dr
 
     dr.set_thread_count(max(1, threads))
     if inputs not in _INPUTS:  # opening the stores costs ~6 ms each: once per worker process
@@ -107,12 +109,12 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
         MitsubaUnavailable: ``cfg.variant`` cannot render here (e.g. cuda_ad_rgb without CUDA).
     """
     from storage.svbrdf_store import SVBRDFInputs
-    from ..mi_env import use_variant
+    from svcore.mi_env import use_variant
 
     use_variant(cfg.variant)  # refused before anything is opened or written; the workers inherit it
     from . import scene as scene_module
     from .scene import mi, scene_constants, scene_description
-    from .store import KIND, array_specs
+    from storage.renders_store import KIND, array_specs
     from .views import R_MAX, R_MIN
 
     src = SVBRDFInputs(inputs)
@@ -127,7 +129,7 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
                               "light_radius_override": "per-sample light_radius of stress inputs",
                               "zoom": list(cfg.zoom), "zoom_law": "log-uniform", "rotation": "U(0, 2 pi)",
                               "shift": "U(0, 1)^2 tiles", "seed": "derive_seed(seed, 'render', svbrdf, view)"},
-        "aligned_maps": "recomputed: pipeline.render.views.transform_maps(base maps, view, res)",
+        "aligned_maps": "recomputed: storage.views.transform_maps(base maps, view, res)",
     }
 
     def attrs(out):  # the inputs' paths relative to the output: the same strings for any spelling of them

@@ -35,7 +35,7 @@ def maps_reader(path):
     g = open_store(path, KINDS)
     kind = dict(g.attrs)["svgen"]["kind"]
     if kind == "renders":
-        from ..render.store import RendersReader
+        from storage.renders_store import RendersReader
 
         r = RendersReader(path)
         return kind, r.n_svbrdf, r.base_maps

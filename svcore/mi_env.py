@@ -3,6 +3,10 @@
 A Python BSDF is traced into a kernel only in ``llvm_ad_*``/``cuda_ad_*``; in
 ``scalar_*`` it would run per ray in Python, unusable for data. So this module
 refuses scalar variants outright.
+
+It lives in svcore (with :mod:`svcore.llvm`) because two packages need drjit: the renderer (``pipeline.render``)
+and the renders store's reader (:mod:`storage.views`, whose transform the training loader's crops run). Importing
+it loads nothing: mitsuba and drjit are loaded on first use (``mi``, ``dr``, :func:`load_mitsuba`).
 """
 from __future__ import annotations
 
@@ -87,7 +91,7 @@ def use_variant(variant: str):
 
 
 def __getattr__(name: str):
-    """``from pipeline.mi_env import mi, dr``: the one place modules take mitsuba and drjit from.
+    """``from svcore.mi_env import mi, dr``: the one place modules take mitsuba and drjit from.
 
     Resolved on first use (PEP 562), so importing this module costs nothing until a renderer needs them;
     drjit is imported only after :func:`load_mitsuba` has exported the libLLVM path.

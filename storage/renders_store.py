@@ -4,7 +4,7 @@ Layout (zarr v3 group; the sample axis is the SVBRDF, N of them, each with V vie
 
 | array          | shape              | dtype   | meaning                                                        |
 |----------------|--------------------|---------|----------------------------------------------------------------|
-| image          | (N, V, R, R, 3)    | uint8   | linear LDR render, stored sRGB-encoded (see encoding.py)       |
+| image          | (N, V, R, R, 3)    | uint8   | linear LDR render, stored sRGB-encoded (see srgb8.py)          |
 | view           | (N, V, 7)          | float64 | ViewParams: light_x, light_y, zoom, rotation, shift_u, shift_v, seed |
 | normal ...     | (N, B, B, C)       | uint16  | the base maps, bytes copied from the input store (svbrdf_store) |
 | source         | (N,)               | int64   | index of the SVBRDF in its input store                         |
@@ -14,7 +14,7 @@ Layout (zarr v3 group; the sample axis is the SVBRDF, N of them, each with V vie
 | category       | (N,)               | int16   | stress category: index into attrs["categories"] (-1: none)     |
 
 Aligned maps are not stored: a view's maps are recomputed from the stored base maps and the view's transform
-(:func:`pipeline.render.views.transform_maps`), which is exactly how the renderer made its textures, so they
+(:func:`storage.views.transform_maps`), which is exactly how the renderer made its textures, so they
 line up with the image pixel for pixel and cost no bytes. The decision and its numbers (bytes and read time
 per view, stored vs recomputed) are in benchmarks/results/render.json (``storage``).
 
@@ -38,7 +38,7 @@ from svcore.errors import StoreError
 from storage.store import ArraySpec, ChunkCache, open_store, read_region
 from storage.svbrdf_store import decode_maps, map_specs
 
-from .encoding import ENCODING, decode_srgb8
+from .srgb8 import ENCODING, decode_srgb8
 from .views import VIEW_FIELDS, VIEW_LONG_NAMES, VIEW_UNITS, ViewParams
 
 KIND = "renders"

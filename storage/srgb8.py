@@ -72,7 +72,7 @@ class DrjitEncoder:
     drjit array: fused into one multithreaded kernel, no float copy to numpy (~1 ms instead of ~5 ms CPU)."""
 
     def __init__(self):
-        from ..mi_env import mi
+        from svcore.mi_env import mi
 
         codes, thr = _bucket_codes()
         self._mi = mi
@@ -81,7 +81,7 @@ class DrjitEncoder:
 
     def __call__(self, linear) -> np.ndarray:
         """drjit Float array (any width) of linear values -> numpy uint8 codes (same order)."""
-        from ..mi_env import dr
+        from svcore.mi_env import dr
 
         mi = self._mi
         x = dr.clip(mi.Float(linear), 0.0, 1.0)

@@ -3,7 +3,7 @@
 drjit 1.5's LLVM backend crashes on LLVM 15 ("Cannot select ... fmaximum"), and
 Debian 12 ships 14/15 by default. This module is the one place that locates a
 usable library and exports ``DRJIT_LIBLLVM_PATH``; every module that imports
-drjit or mitsuba calls :func:`ensure_llvm` first (``pipeline.mi_env`` does).
+drjit or mitsuba calls :func:`ensure_llvm` first (``svcore.mi_env`` does).
 """
 from __future__ import annotations
 

@@ -1,27 +1,17 @@
-"""Per-view random parameters, and the numpy transform of tileable base maps into a view.
+"""A view of a renders store: its parameters, and the transform that gives its aligned maps.
 
-A view is a flash photograph of the material plane under a random light offset and a random texture transform
-(zoom, rotation, shift). The maps that go with the view are the base maps under the same transform, normals
-rotated into screen space; :func:`transform_maps` computes them, and the renderer uses exactly those maps as
-its textures (one texel per film pixel, nearest lookup), so they line up with the render pixel for pixel by
-construction.
+A view is a flash photograph of the material plane under a light offset and a texture transform (zoom,
+rotation, shift); the renders store keeps one row of :class:`ViewParams` per view (``view`` array). The maps
+that go with the view are the base maps under the same transform, normals rotated into screen space:
+:func:`transform_planes` computes them. The renderer (:mod:`pipeline.render.scene`) uses exactly those maps as
+its textures (one texel per film pixel, nearest lookup), and the store's reader
+(:class:`storage.renders_store.RendersReader`, what the training loader crops) recomputes them with the same
+function, so they line up with the render pixel for pixel by construction. The transform runs as one drjit
+kernel (numpy fancy-index gathers took ~40 ms per 256^2 view, the whole view budget); mitsuba and drjit come from
+:mod:`svcore.mi_env` (libLLVM located first), loaded when this module is imported.
 
-View distribution (:func:`draw_view`), all independent:
-
-* light offset (x, y) in the camera plane z = D, in world units (the plane spans [-1, 1]^2):
-  radius sqrt(U(R_MIN^2, R_MAX^2)) (uniform over the annulus; ``materials.capture.LIGHT_R_MIN``, ``LIGHT_R_MAX``),
-  angle U(0, 2 pi). For a flat mirror the highlight is at the midpoint (x/2, y/2) of camera and light, so
-  R_MAX = 0.7 keeps its centre within 0.35 of the image centre (the middle ~35 % of the half-width).
-  R_MIN = 0.1 keeps a sphere flash (radius <= 0.05) off the camera's frustum (a sphere at lateral offset rho
-  blocks camera rays unless rho > ~1.5 radius).
-* zoom: tiles of the base map across the picture width, log-uniform in [ZOOM_MIN, ZOOM_MAX] = [0.7, 1.4] (the
-  default of ``render.zoom``, which sets another range)
-  (mild magnification to mild minification; minified views are box-prefiltered by supersampling).
-  The transform runs as one drjit kernel (numpy fancy-index gathers took ~40 ms per 256^2 view here, the
-  whole view budget).
-* rotation: U(0, 2 pi) counter-clockwise on screen.
-* shift: U(0, 1)^2 tiles (so views do not all share the tile's corner at the picture centre).
-* seed: a 31-bit seed for ``mi.render``.
+This module is the part of a view that the store defines and both the renderer and the loader need; how views are
+drawn (the view distribution) is the renderer's, :mod:`pipeline.render.views`.
 """
 from __future__ import annotations
 
@@ -30,17 +20,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from materials.capture import LIGHT_R_MAX as R_MAX
-from materials.capture import LIGHT_R_MIN as R_MIN
 from materials.capture import NORMAL_Z_MIN
 from materials.maps import N_CHANNELS, SVBRDF, pack_maps, unpack_maps
 
-from svcore.seeds import rng_for
+from svcore.mi_env import dr, mi
 
-from ..mi_env import dr, mi
-from .bsdf import to_planes
-
-ZOOM_MIN, ZOOM_MAX = 0.7, 1.4
 #: field order of :meth:`ViewParams.as_array` (the per-view row stored in a renders store).
 VIEW_FIELDS = ("light_x", "light_y", "zoom", "rotation", "shift_u", "shift_v", "seed")
 #: units of each field (the store's ``view`` array records them): world units are those of the capture scene, whose
@@ -88,40 +72,6 @@ class ViewParams:
 
     def as_dict(self) -> dict:
         return asdict(self)
-
-
-def draw_view(rng: np.random.Generator, light_radius: tuple[float, float] = (R_MIN, R_MAX),
-              zoom_range: tuple[float, float] = (ZOOM_MIN, ZOOM_MAX)) -> ViewParams:
-    """Draw one view from the distribution of the module docstring.
-
-    Args:
-        rng: the view's generator.
-        light_radius: (min, max) light offset radius; the stress suite widens it to push the highlight to the
-            image border.
-        zoom_range: (min, max) of the log-uniform zoom (``render.zoom``); the same draws from the generator
-            whatever the range, so a range changes the zoom of each view and nothing else.
-    """
-    r0, r1 = light_radius
-    rho = math.sqrt(rng.uniform(r0**2, r1**2))
-    phi = rng.uniform(0.0, 2 * math.pi)
-    zoom = math.exp(rng.uniform(math.log(zoom_range[0]), math.log(zoom_range[1])))
-    return ViewParams(
-        light_x=rho * math.cos(phi),
-        light_y=rho * math.sin(phi),
-        zoom=zoom,
-        rotation=rng.uniform(0.0, 2 * math.pi),
-        shift_u=rng.uniform(0.0, 1.0),
-        shift_v=rng.uniform(0.0, 1.0),
-        seed=int(rng.integers(0, 2**31)),
-    )
-
-
-def draw_views(master_seed: int, sample_index: int, n_views: int,
-               light_radius: tuple[float, float] = (R_MIN, R_MAX),
-               zoom_range: tuple[float, float] = (ZOOM_MIN, ZOOM_MAX)) -> list[ViewParams]:
-    """The views of one SVBRDF: view k is a pure function of (master seed, sample index, k) and the ranges."""
-    return [draw_view(rng_for(master_seed, "render", sample_index, k), light_radius, zoom_range)
-            for k in range(n_views)]
 
 
 def supersampling(view: ViewParams, res: int, base: int) -> int:
@@ -201,6 +151,19 @@ def transform_planes(base_planes: list, base: int, view: ViewParams, res: int,
     out = [n.x, n.y, n.z] + [dr.clip(a, 0.0, 1.0) for a in acc[3:]]
     dr.eval(*out)
     return out
+
+
+def to_planes(packed: np.ndarray) -> np.ndarray:
+    """The channel planes of packed maps (the layout the renderer's BSDF and :func:`transform_planes` read).
+
+    Args:
+        packed: (H, W, 10) maps in the packed layout (:func:`materials.maps.pack_maps`).
+
+    Returns:
+        (10, H * W) float32 planes in ``materials.maps.CHANNEL_NAMES`` order, texels row-major with numpy row 0 =
+        image top.
+    """
+    return np.ascontiguousarray(packed.reshape(-1, N_CHANNELS).T)
 
 
 def planes_of(m: SVBRDF) -> list:
