@@ -116,7 +116,7 @@ def flat_per_view(store: Path, crop: int = 128) -> tuple[dict[int, float], list[
     """Each view's flat-map normal RMSE (the evaluated centre window, (n+1)/2 encoding) and each SVBRDF's name."""
     import torch
 
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
     from train.data import PairDataset
 
     src = RendersReader(str(store))

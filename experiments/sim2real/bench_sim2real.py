@@ -123,7 +123,7 @@ def train(a, work: Path, log: list) -> tuple[Path, dict]:
     if not (run / "model.pt").is_file():
         sh(["svtrain", "fit", "--params", params_file, "--store", str(r), "--out", str(run),
             "--iterations", str(steps), *train_sets], log)
-    from pipeline.render.store import RendersReader
+    from storage.renders_store import RendersReader
 
     metrics = json.loads((run / "metrics.json").read_text())
     return run, {"steps": steps, "steps_from": how, "store_views": len(RendersReader(r)),
