@@ -53,6 +53,15 @@ ARMS = {
                   "evaluation counts it"),
 }
 
+#: data arms: the control's train config on another store (``--arm-store NAME=PATH``), made like the control's with
+#: one sample setting changed. Their held-out views differ from the control's where the change reaches them, so both
+#: models are evaluated on both held-out sets (``heldout`` on the arm's store, ``heldout_control_store``).
+DATA_ARMS = {
+    "flat": "the control's store remade with sample.flat_grain=false: the flat-mode variants (35 %) without the fine "
+            "grain, truly flat like a print or a polished stone (with the grain the library holds no flat material)",
+}
+ARMS.update({name: ([], what) for name, what in DATA_ARMS.items()})
+
 
 #: views of each svgen set evaluated per model (``--limit``: the first of the suite's views; the real reference is
 #: evaluated whole, 320 views): about 1.1 CPU-s a view on the 2-core machine, so 4 models x 3 sets fit in 25 minutes.
@@ -67,8 +76,19 @@ def fit_cmd(a, store: Path, out: Path, extra: list[str]) -> list[str]:
 
 def fit_arms(a, store: Path, out_dir: Path, arms: list[str]) -> None:
     """Train the unfinished arms side by side, one torch thread each (every arm the same arithmetic)."""
-    side_by_side({n: fit_cmd(a, store, out_dir / n, ARMS[n][0]) for n in arms
+    side_by_side({n: fit_cmd(a, a.arm_store.get(n, store), out_dir / n, ARMS[n][0]) for n in arms
                   if not (out_dir / n / "model.pt").is_file()}, out_dir, a.threads)
+
+
+def arm_stores(items: list[str]) -> dict[str, Path]:
+    out = {}
+    for item in items:
+        name, _, path = item.partition("=")
+        if name not in DATA_ARMS or not Path(path).is_dir():
+            raise SystemExit(f"--arm-store {item}: want NAME=STORE with NAME one of {', '.join(DATA_ARMS)} and an "
+                             f"existing store")
+        out[name] = Path(path).resolve()
+    return out
 
 
 def sets_of(run: str, out: Path, refs: list[Path], log: Path, store: Path) -> dict:
@@ -103,7 +123,13 @@ def main(argv=None) -> None:
     ap.add_argument("--arms", nargs="*", default=list(ARMS), help=f"arms (control first): {', '.join(ARMS)}")
     ap.add_argument("--phase", choices=("all", "fit", "eval"), default="all")
     ap.add_argument("--out", default=None, help="results JSON (default results/finetune_<steps>.json here)")
+    ap.add_argument("--arm-store", action="append", default=[], metavar="NAME=STORE",
+                    help=f"the training store of a data arm ({', '.join(DATA_ARMS)})")
     a = ap.parse_args(argv)
+    a.arm_store = arm_stores(a.arm_store)
+    missing = [n for n in a.arms if n in DATA_ARMS and n not in a.arm_store]
+    if missing:
+        raise SystemExit(f"data arms need --arm-store NAME=STORE: {', '.join(missing)}")
     unknown = [x for x in a.arms if x not in ARMS]
     if unknown or "control" not in a.arms:
         raise SystemExit(f"--arms: unknown {unknown} or no control; choose from {', '.join(ARMS)}")
@@ -131,11 +157,22 @@ def main(argv=None) -> None:
         raise SystemExit(f"arms not finished (no model.pt): {', '.join(unfinished)}; run --phase fit first")
     for name in a.arms:
         run = out_dir / name
-        r = {"what": ARMS[name][1], "args": ARMS[name][0], **sets_of(str(run), run, refs, log, store),
+        own = a.arm_store.get(name, store)
+        r = {"what": ARMS[name][1], "args": ARMS[name][0], **sets_of(str(run), run, refs, log, own),
              "spec_stats": spec(run, refs)}
         if name != "control":
             r["effect_reference"] = pooled_effect([(ctl / f"eval_ref{i}", run / f"eval_ref{i}")
                                                    for i in range(len(refs))])
+        if name in a.arm_store:  # both models on both held-out sets (same names, the arm's maps where it changed them)
+            r["store"] = str(own)
+            ctl_on_arm = ctl / f"eval_heldout_{name}"
+            evaluate(str(ctl), ctl_on_arm, log, "--suite", "heldout", "--store", str(own), "--limit", str(HELDOUT_VIEWS))
+            evaluate(str(run), run / "eval_heldout_control_store", log, "--suite", "heldout", "--store", str(store),
+                     "--limit", str(HELDOUT_VIEWS))
+            r["heldout_control_store"] = table(json.loads((run / "eval_heldout_control_store" / "eval.json").read_text()))
+            r["effect_heldout"] = pooled_effect([(ctl_on_arm, run / "eval_heldout")])
+            r["effect_heldout_control_store"] = pooled_effect([(ctl / "eval_heldout", run / "eval_heldout_control_store")])
+        elif name != "control":
             r["effect_heldout"] = pooled_effect([(ctl / "eval_heldout", run / "eval_heldout")])
         res["arms"][name] = r
     # the control against where it started: what the steps alone did
