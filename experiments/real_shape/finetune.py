@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -57,10 +58,13 @@ ARMS = {
 #: one sample setting changed. Their held-out views differ from the control's where the change reaches them, so both
 #: models are evaluated on both held-out sets (``heldout`` on the arm's store, ``heldout_control_store``).
 DATA_ARMS = {
-    "flat": "the control's store remade with sample.flat_grain=false: the flat-mode variants (35 %) without the fine "
-            "grain, truly flat like a print or a polished stone (with the grain the library holds no flat material)",
+    "flat": ([], "the control's store remade with sample.flat_grain=false: the flat-mode variants (35 %) without the "
+                 "fine grain, truly flat like a print or a polished stone (with the grain the library holds no flat "
+                 "material)"),
+    "flat_rmse_late": (ARMS["rmse_late"][0], "both winners of round 4 together: the flat store (--arm-store "
+                                             "flat_rmse_late=<the flat arm's store>) and the late rmse normal term"),
 }
-ARMS.update({name: ([], what) for name, what in DATA_ARMS.items()})
+ARMS.update(DATA_ARMS)
 
 
 #: views of each svgen set evaluated per model (``--limit``: the first of the suite's views; the real reference is
@@ -149,7 +153,8 @@ def main(argv=None) -> None:
                        "bundled model: paired arms, same store, seed, steps and lr",
            "steps": a.steps, "lr": a.lr, "threads_per_run": a.threads, "store": str(store.relative_to(work)),
            "references": [str(r.relative_to(work)) for r in refs],
-           "commands": {n: " ".join(fit_cmd(a, Path("STORE"), Path("OUT") / n, ARMS[n][0])) for n in a.arms},
+           "commands": {n: " ".join(fit_cmd(a, Path("STORE"), Path("OUT") / n, ARMS[n][0]))
+                        .replace(PARAMS, "params.yaml") for n in a.arms},
            "bundled": sets_of("bundled", out_dir / "bundled", refs, log, store), "arms": {}}
     ctl = out_dir / "control"
     unfinished = [n for n in a.arms if not (out_dir / n / "model.pt").is_file()]
@@ -163,15 +168,16 @@ def main(argv=None) -> None:
         if name != "control":
             r["effect_reference"] = pooled_effect([(ctl / f"eval_ref{i}", run / f"eval_ref{i}")
                                                    for i in range(len(refs))])
-        if name in a.arm_store:  # both models on both held-out sets (same names, the arm's maps where it changed them)
-            r["store"] = str(own)
+        if name in a.arm_store:  # both models on both held-out sets (same names; the arm's maps where it changed)
+            r["store"] = os.path.relpath(own, ROOT)  # relative: results are a function of inputs, not of paths
             ctl_on_arm = ctl / f"eval_heldout_{name}"
-            evaluate(str(ctl), ctl_on_arm, log, "--suite", "heldout", "--store", str(own), "--limit", str(HELDOUT_VIEWS))
-            evaluate(str(run), run / "eval_heldout_control_store", log, "--suite", "heldout", "--store", str(store),
-                     "--limit", str(HELDOUT_VIEWS))
-            r["heldout_control_store"] = table(json.loads((run / "eval_heldout_control_store" / "eval.json").read_text()))
+            on_ctl_store = run / "eval_heldout_control_store"
+            lim = ("--limit", str(HELDOUT_VIEWS))
+            evaluate(str(ctl), ctl_on_arm, log, "--suite", "heldout", "--store", str(own), *lim)
+            r["heldout_control_store"] = table(evaluate(str(run), on_ctl_store, log, "--suite", "heldout",
+                                                        "--store", str(store), *lim))
             r["effect_heldout"] = pooled_effect([(ctl_on_arm, run / "eval_heldout")])
-            r["effect_heldout_control_store"] = pooled_effect([(ctl / "eval_heldout", run / "eval_heldout_control_store")])
+            r["effect_heldout_control_store"] = pooled_effect([(ctl / "eval_heldout", on_ctl_store)])
         elif name != "control":
             r["effect_heldout"] = pooled_effect([(ctl / "eval_heldout", run / "eval_heldout")])
         res["arms"][name] = r
