@@ -169,7 +169,7 @@ def main(argv=None) -> None:
             r["effect_reference"] = pooled_effect([(ctl / f"eval_ref{i}", run / f"eval_ref{i}")
                                                    for i in range(len(refs))])
         if name in a.arm_store:  # both models on both held-out sets (same names; the arm's maps where it changed)
-            r["store"] = os.path.relpath(own, ROOT)  # relative: results are a function of inputs, not of paths
+            r["store"] = os.path.relpath(own)  # relative to where it runs: results are not a function of paths
             ctl_on_arm = ctl / f"eval_heldout_{name}"
             on_ctl_store = run / "eval_heldout_control_store"
             lim = ("--limit", str(HELDOUT_VIEWS))
