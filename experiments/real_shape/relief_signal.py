@@ -69,10 +69,8 @@ def corr_amp(p: np.ndarray, g: np.ndarray) -> dict[str, float]:
     return {"corr": round(pg / max(np.sqrt(pp * gg), 1e-12), 4), "amplitude": round(np.sqrt(pp / max(gg, 1e-12)), 4)}
 
 
-def collect(model, src, idx, crop: int, coords: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(predicted normals, true normals, SVBRDF ids) of the views, each (N, 3, H, W) unit vectors."""
-    from train.evaluate import cluster_ids
-
+def collect(model, src, idx, crop: int, coords: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(predicted normals, true normals) of the views, each (N, 3, H, W) unit vectors."""
     ds = PairDataset(src, idx, crop, 0, train=False, coords=coords)
     preds, gts = [], []
     with torch.no_grad():
@@ -82,7 +80,7 @@ def collect(model, src, idx, crop: int, coords: bool) -> tuple[np.ndarray, np.nd
             xy = torch.stack([x[2] for x in items]) if coords else None
             preds.append(model(img, xy)[:, 0:3].numpy())
             gts.append(torch.stack([x[1] for x in items])[:, 0:3].numpy())
-    return np.concatenate(preds), np.concatenate(gts), cluster_ids(src, idx)
+    return np.concatenate(preds), np.concatenate(gts)
 
 
 def per_view(p: np.ndarray, g: np.ndarray, gt: np.ndarray) -> dict:
@@ -157,7 +155,7 @@ def main() -> None:
             sets[f"reference_{i}"] = (src, np.arange(len(src), dtype=np.int64))
         got, alpha = {}, None
         for name, (src, idx) in sets.items():
-            pred, gt, _ = collect(model, src, idx, cfg.data.crop, coords)
+            pred, gt = collect(model, src, idx, cfg.data.crop, coords)
             got[name] = analyse(pred, gt, alpha)
             if name == "train_views":
                 alpha = got[name]["best_alpha"]
