@@ -84,7 +84,7 @@ class SampleConfig(StageConfig):
     flat_share: float = Field(0.35, ge=0, le=1)
     """Share of variants made with flat normals, colour, specular and roughness kept: the printed, polished or
     painted-over counterpart of a textured material, so that colour texture alone never means relief (#22;
-    benchmarks/results/shape_finetune.json: with swap_share, real normals move toward the flat map's error).
+    experiments/shape/results/shape_finetune.json: with swap_share, real normals move toward the flat map's error).
     Presets' variants only: an imported material's variants keep its measured relief."""
     swap_share: float = Field(0.35, ge=0, le=1)
     """Share of variants whose relief is replaced by an independent random height field
@@ -194,7 +194,7 @@ class RenderConfig(StageConfig):
     zoom: tuple[float, float] = Field((0.7, 1.4), **_LIST)
     """Range of the per-view texture zoom (base-map tiles across the picture width, log-uniform; min == max: one
     zoom for every view). At the default it is left out of the recorded config (the same bytes as before the key);
-    the #22 shape grid measures its effect on learning normals (benchmarks/bench_shape.py, shape.json)."""
+    the #22 shape grid measures its effect on learning normals (experiments/shape/bench_shape.py, shape.json)."""
     spp: int = Field(1, ge=1)
     """Samples per pixel (1 pixel-centre sample against a converged sphere-light reference:
     benchmarks/bench_render_quality.py, results in benchmarks/results/render_quality.json)."""

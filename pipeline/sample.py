@@ -12,7 +12,7 @@ Relief modes (#22, :class:`Relief`): after the generator, a share of the variant
 included) gets flat normals and another (``swap_share``) an independent random height field in place of its own
 relief, each variant's mode drawn from its own seed; colour, specular and roughness stay the generator's. A
 network then cannot read relief from colour texture alone, which made models paint relief onto flat real
-materials (benchmarks/bench_shape_finetune.py). Imported materials' variants keep their measured relief
+materials (experiments/shape/bench_shape_finetune.py). Imported materials' variants keep their measured relief
 (``relief_modes`` of their spec).
 """
 from __future__ import annotations

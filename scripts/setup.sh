@@ -26,7 +26,7 @@ PY=${PYTHON:-python3}
 $PY -m pip install -q --disable-pip-version-check "torch==2.13.0"
 $PY -m pip install -q --disable-pip-version-check -e ".[dev]"
 $PY - <<'PY'
-from pipeline.mi_env import load_mitsuba
+from svcore.mi_env import load_mitsuba
 mi = load_mitsuba()
 print("svgen setup: ok, mitsuba", mi.__version__, "variant", mi.variant())
 PY

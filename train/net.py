@@ -118,7 +118,7 @@ class SVBRDFNet(nn.Module):
         # rendering loss's lights gives highlights ~10x too bright, and the fastest way down the loss is to shrink
         # the lobe to a mirror (roughness -> floor) rather than to lower F0; the net then stayed there (dvc store,
         # 700 steps: held-out roughness RMSE 0.64, specular 0.39, both far worse than the mean baselines).
-        # Started near the data means, the same 450-step probe gave 0.27 / 0.07 (benchmarks/results/train_probes.json).
+        # Started near the data means, the same 450-step probe gave 0.27 / 0.07 (experiments/output_init/results/train_probes.json).
         with torch.no_grad():
             b = self.out_conv.bias
             k = n_out - 7  # where the diffuse starts: after the normal's two channels unless they have a decoder

@@ -30,7 +30,7 @@ PARAMS = [
     P("moisture", 0.0, 0.0, 1.0, "wet patches (darker, smoother)"),
     P("debris", 0.0, 0.0, 1.0, "twigs and needles"),
     P("color_var", 0.2, 0.0, 0.6, "colour variation"),
-    # calibrated (#23): reference ground scans (materials-cc0, benchmarks/results/stats_by_class.json): mean
+    # calibrated (#23): reference ground scans (materials-cc0, experiments/library_stats/results/stats_by_class.json): mean
     # roughness 0.53-0.85, 0.69 over the five
     P("roughness", 0.75, 0.45, 1.0, "roughness of dry soil"),
 ]

@@ -10,7 +10,7 @@ ray and the BSDF. This integrator computes the same product without the two part
 * the flash's direction sample is taken with ``test_visibility=False``: no shadow ray.
 
 The image equals ``direct``'s up to float32 rounding of the hit point (the two intersection codes round
-differently): ``tests/test_render_integrator.py`` bounds the difference, and ``benchmarks/probe_render_floor.py``
+differently): ``tests/test_render_integrator.py`` bounds the difference, and ``experiments/render_floor/probe_render_floor.py``
 measured it (max relative difference ~1e-5, about 2 differing 8-bit codes per million) and the time saved.
 
 Only for the point flash: a sphere flash uses MIS with BSDF samples, whose rays must find the sphere, and keeps
