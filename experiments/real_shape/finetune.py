@@ -63,6 +63,9 @@ DATA_ARMS = {
                  "material)"),
     "flat_rmse_late": (ARMS["rmse_late"][0], "both winners of round 4 together: the flat store (--arm-store "
                                              "flat_rmse_late=<the flat arm's store>) and the late rmse normal term"),
+    "flat_rmse_late_mixed": (ARMS["rmse_late"][0] + ARMS["mixed"][0],
+                             "round 4's pair with the diffuse protected: the flat store, the late rmse normal term and "
+                             "round 2's mixed loss (+ 0.1 x L1 on the maps, which helped specular and diffuse a little)"),
 }
 ARMS.update(DATA_ARMS)
 
