@@ -19,7 +19,7 @@ View kinds (random rotation, shift and light direction; base maps of library pre
 Beside the stage's code, two minifications through a prefiltered pyramid of the base maps (:data:`PYRAMID_MODES`,
 :func:`pyramid_maps`, float64 numpy here) are measured against the same references: the candidates #42 proposed.
 
-    python3 benchmarks/bench_render_accuracy.py --before <commit>   # -> results/render_accuracy.json
+    python3 experiments/render_accuracy/bench_render_accuracy.py --before <commit>   # -> results/render_accuracy.json
 
 ``--before`` renders the candidates of that commit too, in a ``git worktree`` at /tmp (the same script run there as
 a subprocess whose PYTHONPATH starts with the worktree), against the same references.
@@ -36,7 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
-from harness import RESULTS, ROOT, parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import ROOT, parser, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/render_accuracy/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 K = 8
 KINDS = ("magnifying", "minifying", "minifying_strong", "grazing_light")
