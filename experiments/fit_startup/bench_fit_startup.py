@@ -5,16 +5,23 @@ A renders store is made first (``svgen sample`` + ``svgen render`` in-process, t
 SVBRDF), so the figures are the per-view costs that grow with a store (the split reads every view's presets) plus
 the fixed ones (worker start, imports). Each phase is timed as `train.fit.fit` runs it, on the same functions.
 
-    python benchmarks/bench_fit_startup.py [--per-preset 8] [--workers 2] -> benchmarks/results/fit_startup.json
+    python3 experiments/fit_startup/bench_fit_startup.py [--per-preset 8] [--workers 2]
+    # -> experiments/fit_startup/results/fit_startup.json
 """
 from __future__ import annotations
 
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-from harness import RESULTS, parser, timed, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import parser, timed, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/fit_startup/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def build_store(root: Path, per_preset: int) -> Path:

@@ -3,11 +3,11 @@
 Each stage runs in-process (``workers=0``: no dask worker processes, so that the profile sees every call) on a small
 count at the paper presets' resolution (288²): ``--variants`` variants (the first base materials, one variant
 each), ``--blends`` blends of them, and ``--views`` views of ``--render`` SVBRDFs. The top ``--top`` functions by
-their own time (tottime) and by cumulative time go into ``benchmarks/results/profiles.json`` under ``--label``
-(e.g. ``before`` and ``after`` a speed change), beside each stage's wall seconds and per-item rate, so that a
-change's effect on the profile is kept with the figures (issue #24: "profiles before and after").
+their own time (tottime) and by cumulative time go into ``experiments/stage_profiles/results/profiles.json``
+under ``--label`` (e.g. ``before`` and ``after`` a speed change), beside each stage's wall seconds and per-item
+rate, so that a change's effect on the profile is kept with the figures (issue #24: "profiles before and after").
 
-    python3 benchmarks/profile_stages.py --label before
+    python3 experiments/stage_profiles/profile_stages.py --label before
 """
 from __future__ import annotations
 
@@ -15,11 +15,17 @@ import cProfile
 import io
 import pstats
 import shutil
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-from harness import RESULTS, ROOT, parser, update_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import ROOT, parser, update_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/stage_profiles/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def _top(prof: cProfile.Profile, key: str, n: int) -> list[dict]:
