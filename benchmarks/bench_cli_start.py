@@ -15,15 +15,12 @@ repetitions; ``import_colour`` is `python3 -c "import colour"` alone (colour-sci
 from __future__ import annotations
 
 import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-from harness import RESULTS, parser, write_results
+from harness import RESULTS, SVGEN, parser, run_child, write_results
 
 #: name -> svgen arguments ({d}: the repetition's scratch folder; variants.zarr there is made first by "sample")
 COMMANDS = {
@@ -37,15 +34,8 @@ COMMANDS = {
 
 def run_once(checkout: Path, argv: list[str]) -> tuple[float, float]:
     """(wall s, CPU s) of one fresh process running ``argv`` with ``checkout``'s modules."""
-    env = {**os.environ, "PYTHONPATH": str(checkout), "SVGEN_NO_PROGRESS": "1"}
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t = time.perf_counter()
-    r = subprocess.run(argv, cwd=checkout, env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - t
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if r.returncode != 0:
-        raise SystemExit(f"{' '.join(argv)} failed in {checkout}:\n{r.stderr[-2000:]}")
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    m = run_child(argv, {**os.environ, "PYTHONPATH": str(checkout), "SVGEN_NO_PROGRESS": "1"}, cwd=checkout)
+    return m["wall_s"], m["cpu_s"]
 
 
 def main() -> None:
@@ -57,13 +47,12 @@ def main() -> None:
     a = p.parse_args()
     checkouts = dict(c.split("=", 1) for c in a.checkout) or {"now": "."}
     checkouts = {k: Path(v).resolve() for k, v in checkouts.items()}
-    svgen = [sys.executable, "-c", "from pipeline.cli import main; main()"]
     samples: dict[str, dict[str, list[tuple[float, float]]]] = {k: {} for k in checkouts}
     for rep in range(a.reps):
         for label, where in checkouts.items():  # interleaved: each repetition measures every checkout in turn
             with tempfile.TemporaryDirectory() as d:
                 for name, args in COMMANDS.items():
-                    argv = svgen + [x.format(d=d) for x in args]
+                    argv = SVGEN + [x.format(d=d) for x in args]
                     samples[label].setdefault(name, []).append(run_once(where, argv))
                 samples[label].setdefault("import_colour", []).append(
                     run_once(where, [sys.executable, "-c", "import colour"]))

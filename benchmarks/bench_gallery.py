@@ -15,14 +15,13 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from harness import RESULTS, ROOT, parser, write_results
+from harness import RESULTS, ROOT, SVGEN, parser, write_results
 
 SIZE, CHUNK, TEMPLATES = 64, 64, 8
 
@@ -53,8 +52,7 @@ def run_gallery(store: Path, out: Path, max_n: int) -> dict:
     """`svgen gallery STORE --out OUT --max N` in a child process: its wall time and peak RSS."""
     env = {**os.environ, "PYTHONPATH": str(ROOT), "SVGEN_NO_PROGRESS": "1"}
     t = time.perf_counter()
-    p = subprocess.Popen([sys.executable, "-c", "from pipeline.cli import main; main()", "gallery", str(store),
-                          "--out", str(out), "--max", str(max_n)], env=env)
+    p = subprocess.Popen([*SVGEN, "gallery", str(store), "--out", str(out), "--max", str(max_n)], env=env)
     _, status, usage = os.wait4(p.pid, 0)
     wall = time.perf_counter() - t
     if os.waitstatus_to_exitcode(status) != 0:

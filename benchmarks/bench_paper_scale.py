@@ -17,16 +17,12 @@ from __future__ import annotations
 
 import json
 import os
-import resource
 import shutil
-import subprocess
 import sys
 import tempfile
-import threading
-import time
 from pathlib import Path
 
-from harness import RESULTS, ROOT, parser, write_results
+from harness import RESULTS, ROOT, SVGEN, parser, run_child, write_results
 
 
 
@@ -38,58 +34,11 @@ def paper_counts() -> tuple[int, int, int]:
     return (SampleConfig.PRESETS["paper"]["per_preset"], BlendConfig.PRESETS["paper"]["count"],
             RenderConfig.PRESETS["paper"]["views"])
 
-#: how often the process tree's resident memory is sampled (seconds).
-POLL_S = 0.2
-
-
-def _tree_rss(pid: int) -> int:
-    """Resident bytes of a process and all its descendants (0 once it is gone)."""
-    import psutil
-
-    try:
-        p = psutil.Process(pid)
-        procs = [p, *p.children(recursive=True)]
-    except psutil.Error:
-        return 0
-    total = 0
-    for q in procs:
-        try:
-            total += q.memory_info().rss
-        except psutil.Error:
-            pass
-    return total
-
-
 def run_stage(args: list[str], env: dict) -> dict:
-    """Run one ``svgen`` command as its own process: wall, CPU of its process tree, peak RSS.
-
-    Returns:
-        wall_s, cpu_s (user + system of the process and of the processes it reaped: its dask workers),
-        peak_rss_bytes (the sum over the process tree, sampled every :data:`POLL_S`).
-    """
-    cmd = [sys.executable, "-c", "from pipeline.cli import main; main()", *args]
-    # this script starts no other process, so the change of its children's usage is the stage's own
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    peak, stop = [0], threading.Event()
-
-    def poll():
-        while not stop.is_set():
-            peak[0] = max(peak[0], _tree_rss(proc.pid))
-            stop.wait(POLL_S)
-
-    t = threading.Thread(target=poll, daemon=True)
-    t.start()
-    _, err = proc.communicate()
-    wall = time.perf_counter() - t0
-    stop.set()
-    t.join()
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    if proc.returncode != 0:
-        raise SystemExit(f"svgen {args[0]} failed (exit {proc.returncode}): {err.strip()[-2000:]}")
-    return {"wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "peak_rss_bytes": peak[0]}
+    """Run one ``svgen`` command as its own process (:func:`harness.run_child`): wall_s, cpu_s (user + system of
+    the process and of the processes it reaped: its dask workers) and peak_rss_bytes (of its process tree)."""
+    m = run_child([*SVGEN, *args], env, peak_rss=True)
+    return {"wall_s": round(m["wall_s"], 3), "cpu_s": round(m["cpu_s"], 3), "peak_rss_bytes": m["peak_rss_bytes"]}
 
 
 def store_size(path: Path) -> tuple[int, int]:

@@ -22,11 +22,10 @@ import os
 import shutil
 import socket
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
-from harness import RESULTS, parser, timed, tree_digest, write_results
+from harness import RESULTS, SVGEN, parser, timed, tree_digest, write_results
 
 N_PRESET = 6  # x 2 variants = 12 SVBRDFs
 
@@ -40,15 +39,14 @@ def _free_port() -> int:
 def _render(inp: Path, out: Path, extra: list[str]) -> float:
     """Wall seconds of one ``svgen render`` command."""
     env = {**os.environ, "SVGEN_NO_PROGRESS": "1"}
-    return timed(lambda: subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()", "render",
-                                         str(inp), str(out), "--chunk", "1", *extra],
+    return timed(lambda: subprocess.run([*SVGEN, "render", str(inp), str(out), "--chunk", "1", *extra],
                                         check=True, env=env, capture_output=True)).wall_s
 
 
 def _steady(inp: Path, out: Path, workers: int, address: str | None) -> float:
     """views/s with the cluster already running: chunk tasks only (first task per worker excluded)."""
     from svcore.config import build
-    from pipeline.exec.parallel import dask_client, run_chunks
+    from pipeline.exec.parallel import dask_client
     from pipeline.config import RenderConfig
     from pipeline.render.stage import chunk_task, render_writer
 

@@ -13,27 +13,19 @@ Writes benchmarks/results/worker_env.json. Usage:
 from __future__ import annotations
 
 import os
-import resource
 import shutil
-import subprocess
 import tempfile
-import time
 from pathlib import Path
 
-from harness import RESULTS, parser, write_results
+from harness import RESULTS, parser, run_child, write_results
 
 DASK_DEFAULT = "65536"  # distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_
 
 
 def run(cmd: list[str], env: dict) -> dict:
-    """Wall, user and system seconds of one command (its whole process tree)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return {"wall_s": round(wall, 2), "user_s": round(after.ru_utime - before.ru_utime, 2),
-            "sys_s": round(after.ru_stime - before.ru_stime, 2)}
+    """Wall, user and system seconds of one command (its whole process tree: :func:`harness.run_child`)."""
+    m = run_child(cmd, env)
+    return {k: round(m[k], 2) for k in ("wall_s", "user_s", "sys_s")}
 
 
 def stages(d: Path, env: dict, a) -> dict:

@@ -23,11 +23,13 @@ import json
 import os
 import platform
 import re
+import resource
 import shlex
 import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from importlib import metadata
 from pathlib import Path
@@ -62,6 +64,64 @@ def timed(f: Callable[[], Any], reps: int = 1) -> Timing:
         cpu.append(time.process_time() - c)
         wall.append(time.perf_counter() - w)
     return Timing(out, float(statistics.median(cpu)), float(statistics.median(wall)))
+
+
+#: ``svgen`` as a fresh process of this interpreter (the project importable through its PYTHONPATH).
+SVGEN = [sys.executable, "-c", "from pipeline.cli import main; main()"]
+
+
+def _tree_rss(pid: int) -> int:
+    """Resident bytes of a process and all its descendants (0 once it is gone)."""
+    import psutil
+
+    try:
+        p = psutil.Process(pid)
+        procs = [p, *p.children(recursive=True)]
+    except psutil.Error:
+        return 0
+    total = 0
+    for q in procs:
+        try:
+            total += q.memory_info().rss
+        except psutil.Error:
+            pass
+    return total
+
+
+def run_child(argv: list[str], env: dict | None = None, cwd=None, peak_rss: bool = False) -> dict:
+    """Run ``argv`` as a child process (output captured) and measure it; a failing command exits with the tail
+    of its stderr.
+
+    Returns:
+        wall_s; user_s, sys_s and cpu_s (their sum) of the child and of the processes it reaped (its dask workers:
+        the calling script must run nothing else meanwhile); with ``peak_rss``, peak_rss_bytes: the resident
+        memory of its whole process tree, sampled every 0.2 s. Unrounded.
+    """
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(argv, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    peak, stop = [0], threading.Event()
+
+    def poll():
+        while not stop.is_set():
+            peak[0] = max(peak[0], _tree_rss(proc.pid))
+            stop.wait(0.2)
+
+    sampler = threading.Thread(target=poll, daemon=True)
+    if peak_rss:
+        sampler.start()
+    _, err = proc.communicate()
+    wall = time.perf_counter() - t0
+    stop.set()
+    if peak_rss:
+        sampler.join()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"{shlex.join(map(str, argv))} failed (exit {proc.returncode}) in {cwd or '.'}:\n"
+                         f"{err.strip()[-2000:]}")
+    user, system = after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime
+    out = {"wall_s": wall, "user_s": user, "sys_s": system, "cpu_s": user + system}
+    return {**out, "peak_rss_bytes": peak[0]} if peak_rss else out
 
 
 def _cpu_model() -> str:
