@@ -48,7 +48,7 @@ def array_specs(views: int, res: int, base: int) -> dict[str, ArraySpec]:
     """ArraySpecs of a renders store (one SVBRDF = one sample), with the per-array attributes a reader without
     svgen needs: the image's nonlinear encoding (no scale_factor: the sRGB curve is not linear), the units of
     every view parameter."""
-    from storage.svbrdf_store import LINEAR_SRGB, _index
+    from storage.svbrdf_store import _index
 
     index = {k: _index(*a) for k, a in {
         "source": ("index of the SVBRDF in its input store",), "source_seed": ("seed of that SVBRDF in its input store",),

@@ -11,7 +11,6 @@ it loads nothing: mitsuba and drjit are loaded on first use (``mi``, ``dr``, :fu
 from __future__ import annotations
 
 import os
-import sys
 
 from svcore.errors import SvgenError
 
@@ -68,6 +67,18 @@ def _require_cuda(variant: str) -> None:
                                  f"on this machine (libcuda.so); render with --variant {DEFAULT_VARIANT} here")
 
 
+#: the variant a registered plugin class (the svgen BSDF) was built in; set by :func:`bind_variant`, so that this
+#: module knows it without importing the renderer above it.
+_BOUND_VARIANT: str | None = None
+
+
+def bind_variant(variant: str) -> None:
+    """Record that a plugin class of ``variant`` is registered in this process (the svgen BSDF calls it on import):
+    :func:`use_variant` then refuses any other variant."""
+    global _BOUND_VARIANT
+    _BOUND_VARIANT = variant
+
+
 def use_variant(variant: str):
     """Make ``variant`` the variant this process renders in, and return ``mitsuba`` with it set.
 
@@ -81,7 +92,7 @@ def use_variant(variant: str):
     """
     if variant.startswith("cuda_ad_"):  # the machine's reason first, before any state changes
         _require_cuda(variant)
-    bound = getattr(sys.modules.get("pipeline.render.bsdf"), "VARIANT", None)
+    bound = _BOUND_VARIANT
     if bound is not None and bound != variant:
         raise MitsubaUnavailable(f"this process already renders in {bound!r} (the svgen BSDF is bound to the variant "
                                  f"it was loaded in): render in {variant!r} from a new process")

@@ -35,7 +35,7 @@ import numpy as np
 from materials.capture import ALPHA_MIN, FRESNEL_SG_A, FRESNEL_SG_B, NORMAL_Z_MIN
 from materials.maps import CHANNEL_NAMES, MAP_SLICES, SVBRDF, pack_maps
 
-from svcore.mi_env import load_mitsuba
+from svcore.mi_env import bind_variant, load_mitsuba
 
 from storage.views import to_planes
 
@@ -44,6 +44,7 @@ import drjit as dr  # noqa: E402  (after load_mitsuba: drjit must see the libLLV
 
 #: the variant this module's BSDF class belongs to (the current one at import: svcore.mi_env.use_variant)
 VARIANT = mi.variant()
+bind_variant(VARIANT)
 
 PLUGIN_NAME = "svgen_ggx"
 #: channel planes of the texture, in the packed order: normal xyz, diffuse rgb, specular rgb, roughness.
