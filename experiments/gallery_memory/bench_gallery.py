@@ -7,7 +7,7 @@ that process's peak resident memory (os.wait4). Memory that does not grow from 2
 "written in bounded memory" means; --max sets the page's size. When Chromium is present, the time for it to load
 the largest page and take a screenshot says whether the page stays usable.
 
-    python3 benchmarks/bench_gallery.py -> benchmarks/results/gallery.json
+    python3 experiments/gallery_memory/bench_gallery.py -> experiments/gallery_memory/results/gallery.json
 """
 from __future__ import annotations
 
@@ -15,13 +15,19 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from harness import RESULTS, ROOT, SVGEN, parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import ROOT, SVGEN, parser, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/gallery_memory/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 SIZE, CHUNK, TEMPLATES = 64, 64, 8
 

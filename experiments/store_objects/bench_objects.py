@@ -6,12 +6,13 @@ views of 256^2, 64 SVBRDFs per task: one shard per array per task; 3 tasks, the 
 workers, then counts the finished store's chunk objects (every file under an array's ``c/`` folder: what an object
 store or ``dvc push`` pays per object), all its files, and its bytes per view; the same for the variants store.
 
-    python3 benchmarks/bench_objects.py [--per-preset 3] --note "..." -> benchmarks/results/objects.json
+    python3 experiments/store_objects/bench_objects.py [--per-preset 3] --note "..."   # -> results/objects.json
 """
 from __future__ import annotations
 
 import json
 import shutil
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -22,7 +23,12 @@ from pipeline.render.stage import run_render
 from pipeline.sample import run_sample
 from svcore.config import build
 
-from harness import RESULTS, parser, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import parser, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/store_objects/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def count(store: Path) -> dict:
