@@ -13,14 +13,15 @@ Measured: the whole `run_import` (discovery, header checks, dask start, decode, 
 then come from the page cache); and per layout the least of 3 timings of one material's conversion. Bar (issue #9):
 >= 5 materials/s (MatSynth's 4,069 materials in under 15 minutes).
 
-Writes benchmarks/results/import.json. Usage: python3 benchmarks/bench_import.py [--materials N] [--size S]
-[--note TEXT]
+Writes experiments/import_speed/results/import.json. Usage:
+    python3 experiments/import_speed/bench_import.py [--materials N] [--size S] [--note TEXT]
 """
 from __future__ import annotations
 
 import json
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
@@ -33,7 +34,12 @@ from pipeline.importer.job import run_import
 from svcore.config import build
 from svcore.image_io import write_png, write_png16
 
-from harness import RESULTS, parser, timed, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import parser, timed, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/import_speed/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 BAR = 5.0
 

@@ -13,14 +13,15 @@ convert_material` on its blobs). On a loaded machine the CPU seconds say what th
 ``projected_2_cores_materials_per_s``.
 Aim (issue #43): >= 5 materials/s at 1K -> 256^2 on 2 cores.
 
-Writes benchmarks/results/import_parquet.json. Usage: python3 benchmarks/bench_import_parquet.py [--rows N]
-[--distinct K] [--note TEXT]
+Writes experiments/import_speed/results/import_parquet.json. Usage:
+    python3 experiments/import_speed/bench_import_parquet.py [--rows N] [--distinct K] [--note TEXT]
 """
 from __future__ import annotations
 
 import json
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
@@ -33,8 +34,13 @@ from pipeline.importer.parquet import stream
 from svcore.config import build
 from svcore.image_io import png_bytes
 
-from bench_import import texture
-from harness import RESULTS, parser, timed, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from bench_import import texture  # noqa: E402
+from harness import parser, timed, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/import_speed/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
 
 AIM = 5.0
 CLASSES = ("ceramic", "concrete", "fabric", "ground", "leather", "marble", "metal", "misc", "plaster", "plastic",
