@@ -68,6 +68,8 @@ DATA_ARMS = {
                              "round 2's mixed loss (+ 0.1 x L1 on the maps, which helped specular and diffuse a little)"),
 }
 ARMS.update(DATA_ARMS)
+#: arms also paired with another arm on the same store (what the one added change does on top of it)
+BASES = {"flat_rmse_late_mixed": "flat_rmse_late"}
 
 
 #: views of each svgen set evaluated per model (``--limit``: the first of the suite's views; the real reference is
@@ -183,6 +185,11 @@ def main(argv=None) -> None:
             r["effect_heldout_control_store"] = pooled_effect([(ctl / "eval_heldout", on_ctl_store)])
         elif name != "control":
             r["effect_heldout"] = pooled_effect([(ctl / "eval_heldout", run / "eval_heldout")])
+        base = BASES.get(name)
+        if base in a.arms and a.arm_store.get(base, store) == own:
+            r[f"effect_reference_vs_{base}"] = pooled_effect([(out_dir / base / f"eval_ref{i}", run / f"eval_ref{i}")
+                                                            for i in range(len(refs))])
+            r[f"effect_heldout_vs_{base}"] = pooled_effect([(out_dir / base / "eval_heldout", run / "eval_heldout")])
         res["arms"][name] = r
     # the control against where it started: what the steps alone did
     res["control_vs_bundled_reference"] = pooled_effect([(out_dir / "bundled" / f"eval_ref{i}", ctl / f"eval_ref{i}")
