@@ -98,8 +98,6 @@ def main(argv=None) -> int:
         inproc_cpu_s_per_view = cpu / n_views  # scene already loaded and compiled in this process (steady state)
 
         # 2-3. dask, 2 local workers, CPU time measured inside the workers around each task
-        from distributed import as_completed
-
         from pipeline.exec.parallel import dask_client, threads_per_worker
         from pipeline.render.stage import chunk_task, render_writer
 
@@ -110,7 +108,7 @@ def main(argv=None) -> int:
             threads = threads_per_worker(client)
             w0 = time.perf_counter()
             futs = client.map(_timed, [task] * n, list(range(n)), [threads] * n, pure=False)
-            stats = [f.result() for f in as_completed(futs)]
+            stats = client.gather(futs)  # dask_client's client is not the default one: gather through it
             wall_dask = time.perf_counter() - w0
             w.finalize()
         by_pid: dict[int, list] = {}
