@@ -30,7 +30,7 @@ def missing_modules(files: list[str]) -> dict[str, str]:
     out = {}
     for f in files:
         for mod in modules_named((ROOT / f).read_text(errors="replace")):
-            if importlib.util.find_spec(mod.split(".")[0]) is None or _find(mod) is None:
+            if _find(mod) is None:
                 out[mod] = f
     return out
 
