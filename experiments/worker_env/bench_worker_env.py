@@ -7,17 +7,22 @@ turns off glibc's dynamic mmap threshold, so every array above 128 KiB (a 256² 
 workers as they are now ("svgen") and with the variable exported as dask sets it ("dask_default": the workers
 inherit it), and records wall, user and system CPU of each command (``RUSAGE_CHILDREN``).
 
-Writes benchmarks/results/worker_env.json. Usage:
-    python3 benchmarks/bench_worker_env.py [--per-preset 4] [--blends 2000] [--render-per-preset 1]
+Writes experiments/worker_env/results/worker_env.json. Usage:
+    python3 experiments/worker_env/bench_worker_env.py [--per-preset 4] [--blends 2000] [--render-per-preset 1]
 """
 from __future__ import annotations
 
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
-from harness import RESULTS, parser, run_child, write_results
+# harness.py stays in benchmarks/; this finished experiment imports it from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import parser, run_child, write_results  # noqa: E402
+
+RESULTS = Path(__file__).resolve().parent / "results"
 
 DASK_DEFAULT = "65536"  # distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_
 
