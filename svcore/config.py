@@ -71,6 +71,12 @@ class ConfigModel(BaseModel):
         """The preset this config was resolved from (informational: not a config key, not in :meth:`as_dict`)."""
         return self._preset
 
+    @classmethod
+    def stored(cls, values: dict[str, Any]) -> dict[str, Any]:
+        """A params file's section (nested mappings) as this config reads it: a config that retired keys drops them
+        here, so that files written before still load (``--set`` and flags never pass through). Default: as is."""
+        return values
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-able values (tuples as lists), in field order: what stores and runs record."""
         return self.model_dump(mode="json")
@@ -243,7 +249,7 @@ def resolve(cls: type[C], preset: str | None = None, params_file: str | Path | N
     if name not in cls.PRESETS:
         raise ConfigError(f"unknown config preset {name!r} for {cls.SECTION}; known: {', '.join(cls.PRESETS)}")
     values = nest(cls.PRESETS[name])
-    merge(values, nest(section))
+    merge(values, cls.stored(nest(section)))
     merge(values, nest(sets))
     merge(values, nest({k: v for k, v in (flags or {}).items() if v is not None}))
     cfg = validate(cls, values)

@@ -6,7 +6,7 @@ import pytest
 import torch
 from scipy import stats
 
-from train.loss import GRAZING_DEG, R1_HIGH, R1_LOW, cosine_hemisphere, rendering_loss, sample_configs
+from train.loss import R1_HIGH, R1_LOW, cosine_hemisphere, rendering_loss, sample_configs
 from train.synthetic import SyntheticSource
 
 
@@ -100,49 +100,12 @@ def test_specular_configs_mirror_geometry():
     np.testing.assert_allclose(lu.numpy(), (vu * torch.tensor([-1.0, -1.0, 1.0])).numpy(), atol=1e-4)
 
 
-def test_grazing_zero_draws_the_papers_configs():
-    # optim.grazing_lights = 0 must leave every run as before the key existed (same draws, same generator state after)
+def test_sample_configs_draws_the_papers_configs_and_nothing_else():
+    # the paper's draws in their order, and nothing more drawn (the next step's draws are the paper's too)
     g0, g1 = torch.Generator().manual_seed(5), torch.Generator().manual_seed(5)
     # the paper's draws, in their order (sample_configs' docstring): 3 + 3 + 6 directions, distances, shifts
     dl, dv, sv = (cosine_hemisphere((64, k), g0) for k in (3, 3, 6))
     torch.randn((64, 6, 2), generator=g0), torch.rand((64, 6, 2), generator=g0)
-    b = sample_configs(64, g1, grazing=0.0)
+    b = sample_configs(64, g1)
     assert torch.equal(b.light[:, :3, :3], dl) and torch.equal(b.view[:, :3, :3], dv)
     assert torch.equal(g0.get_state(), g1.get_state())  # nothing else drawn: the next step's draws are unchanged
-
-
-def test_grazing_lights_share_elevation_and_azimuth():
-    n, share = 20000, 0.4
-    plain = sample_configs(n, torch.Generator().manual_seed(7))
-    graz = sample_configs(n, torch.Generator().manual_seed(7), grazing=share)
-    # only the diffuse lights move: views and the specular configurations are the paper's draws
-    assert torch.equal(graz.view, plain.view) and torch.equal(graz.light[:, 3:], plain.light[:, 3:])
-    d, d0 = graz.light[:, :3, :3], plain.light[:, :3, :3]
-    assert (graz.light[:, :3, 3] == 0).all()
-    np.testing.assert_allclose(d.norm(dim=-1).numpy(), 1, atol=1e-5)
-    moved = (d != d0).any(-1)
-    # the share moved: binomial, 4 standard deviations
-    k, m = int(moved.sum()), moved.numel()
-    assert abs(k - share * m) < 4 * np.sqrt(m * share * (1 - share))
-    # the moved lights' elevations are uniform on GRAZING_DEG (KS), their azimuth kept
-    elev = torch.rad2deg(torch.asin(d[moved][:, 2])).double().numpy()
-    lo, hi = GRAZING_DEG
-    assert stats.kstest(elev, stats.uniform(loc=lo, scale=hi - lo).cdf).pvalue > 1e-3
-    np.testing.assert_allclose(torch.atan2(d[moved][:, 1], d[moved][:, 0]).numpy(),
-                               torch.atan2(d0[moved][:, 1], d0[moved][:, 0]).numpy(), atol=1e-4)
-
-
-def test_grazing_lights_show_relief_more(maps):
-    # why the option exists: the same tilt error costs more under grazing diffuse lights than under the paper's
-    flat = maps.clone()
-    flat[:, 0:2] = 0.0  # the prediction: the right colours on a flat surface
-    tilted = maps.clone()
-    tilted[:, 0:2] = 0.15 * torch.randn(maps[:, 0:2].shape, generator=torch.Generator().manual_seed(3))
-    diffuse_only = slice(0, 3)
-    losses = {}
-    for share in (0.0, 1.0):
-        cfg = sample_configs(len(maps) * 64, torch.Generator().manual_seed(4), grazing=share)
-        cfg = type(cfg)(cfg.light[:, diffuse_only], cfg.view[:, diffuse_only])
-        rep = lambda t: t.repeat(64, 1, 1, 1)  # noqa: E731 - 64 light draws per map
-        losses[share] = rendering_loss(rep(flat), rep(tilted), cfg=cfg).item()
-    assert losses[1.0] > 2 * losses[0.0]

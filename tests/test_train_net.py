@@ -85,11 +85,10 @@ def test_untrained_network_predicts_its_initial_material(zero_output):
         assert spread > 1e-3, spread
 
 
-@pytest.mark.parametrize("flags", [{"fullres_convs": 2}, {"normal_head": True}, {"normal_param": "slope"},
-                                   {"normal_decoder": True}, {"normal_decoder": True, "fullres_convs": 1}])
+@pytest.mark.parametrize("flags", [{}, {"normal_decoder": True}])
 def test_shape_flags_give_unit_normals_and_start_flat(flags):
-    """The learn-shape variants (#22): unit normals with z > 0, a flat start under zero_output, and the normal head
-    or full-resolution layers actually in the normal's path (a gradient reaches them)."""
+    """Unit normals with z > 0, a flat start under zero_output, and the layer that gives the normal (the output
+    layer, or the normal decoder) actually in the normal's path (a gradient reaches it)."""
     cfg = ModelConfig(base_width=4, max_width=16, levels=4, zero_output=True, **flags)
     torch.manual_seed(0)
     net = SVBRDFNet(cfg)
@@ -98,20 +97,8 @@ def test_shape_flags_give_unit_normals_and_start_flat(flags):
     torch.testing.assert_close(n.norm(dim=1), torch.ones(2, 32, 32))
     assert (n[:, 2] > 0.999).all()  # flat at the start, up to the small global output bias
     y[:, 0:2].sum().backward()
-    part = net.normal_head if flags.get("normal_head") else net.normal_decoder if flags.get("normal_decoder") else (
-        net.fullres if flags.get("fullres_convs") else net.out_conv)
+    part = net.normal_decoder if flags.get("normal_decoder") else net.out_conv
     assert any(p.grad is not None and p.grad.abs().sum() > 0 for p in part.parameters())
-
-
-def test_slope_parameterisation_turns_outputs_into_slopes():
-    """normal_param=slope: raw outputs (dx, dy) give n ∝ (-dx, -dy, 1), height_to_normal's convention."""
-    from train.net import outputs_to_maps
-
-    o = torch.zeros(1, 9, 1, 1)
-    o[0, 0], o[0, 1] = 0.5, -0.25
-    n = outputs_to_maps(o, "slope")[0, 0:3, 0, 0]
-    want = torch.tensor([-0.5, 0.25, 1.0])
-    torch.testing.assert_close(n, want / want.norm())
 
 
 def test_pixel_coords_span_the_image_given():
@@ -170,14 +157,6 @@ def test_the_options_add_only_the_normal_decoders_parameters():
     assert extra and all(k.startswith("normal_decoder.") for k in extra)
 
 
-def test_normal_head_and_normal_decoder_are_one_choice():
-    from svcore.errors import ConfigError
-    from train.config import resolve
-
-    with pytest.raises(ConfigError, match="normal_head"):
-        resolve("compact", None, {"model.normal_head": True, "model.normal_decoder": True})
-
-
 @pytest.mark.parametrize("global_track", [True, False])
 def test_a_grown_normal_decoder_starts_as_the_network_it_grew_from(global_track):
     """``grow_normal_decoder``: a trained one-decoder network's weights -> the two-decoder network with the same
@@ -222,8 +201,7 @@ def test_fit_init_grows_a_normal_decoder_from_a_one_decoder_run(tmp_path):
         init_weights(other)
 
 
-@pytest.mark.parametrize("fullres_convs", [0, 1])
-def test_grown_coordinate_channels_start_as_the_network_they_grew_from(fullres_convs, tmp_path):
+def test_grown_coordinate_channels_start_as_the_network_they_grew_from(tmp_path):
     """``grow_coord_channels`` (``svtrain fit --init`` with model.coord_channels): the grown network's maps equal the
     original's for any coordinates (zero weights on them), every photo-fed layer grew, and training can move the
     new weights (they get gradients). ``init_weights`` grows them from a checkpoint and still refuses other changes."""
@@ -232,8 +210,7 @@ def test_grown_coordinate_channels_start_as_the_network_they_grew_from(fullres_c
     from train.config import resolve
     from train.net import grow_coord_channels
 
-    small = {"model.base_width": 4, "model.max_width": 16, "model.levels": 3, "model.zero_output": False,
-             "model.fullres_convs": fullres_convs}
+    small = {"model.base_width": 4, "model.max_width": 16, "model.levels": 3, "model.zero_output": False}
     torch.manual_seed(0)
     base = resolve("compact", None, small)
     one = SVBRDFNet(base.model).eval()
@@ -246,7 +223,7 @@ def test_grown_coordinate_channels_start_as_the_network_they_grew_from(fullres_c
     two = SVBRDFNet(grown_cfg.model).eval()
     two.load_state_dict(weights)  # strict: every key present with its grown shape
     grew = [k for k in weights if weights[k].shape != one.state_dict()[k].shape]
-    assert len(grew) == 2 + (1 if fullres_convs else 0)  # first encoder conv, output layer (+ the full-res conv)
+    assert len(grew) == 2  # the first encoder conv and the output layer
     x = torch.rand(2, 3, 32, 32, generator=torch.Generator().manual_seed(1))
     xy = torch.rand(2, 2, 32, 32, generator=torch.Generator().manual_seed(2)) * 2 - 1
     with torch.no_grad():

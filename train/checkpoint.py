@@ -19,7 +19,7 @@ import torch
 
 from svcore.errors import SvgenError
 
-from .config import Config, ModelConfig, from_dict
+from .config import Config, ModelConfig, drop_retired, from_dict
 from .net import SVBRDFNet, grow_coord_channels, grow_normal_decoder
 
 FORMAT = "svtrain-checkpoint/1"
@@ -120,10 +120,10 @@ def init_weights(cfg: Config) -> dict[str, torch.Tensor] | None:
     if not source:
         return None
     state = load(source)
-    theirs = dict(state["config"]["model"])
+    theirs = drop_retired(state["config"])["model"]  # a run from before #41 may hold retired keys at their defaults
     ours = cfg.to_dict()["model"]
     weights = state["model"]
-    if ours.get("normal_decoder") and not theirs.get("normal_decoder") and not theirs.get("normal_head"):
+    if ours.get("normal_decoder") and not theirs.get("normal_decoder"):
         # a one-decoder model grows a normal decoder that starts as a copy of its decoder: the same maps at step 0
         weights, theirs = grow_normal_decoder(weights), {**theirs, "normal_decoder": True}
     if ours.get("coord_channels") and not theirs.get("coord_channels"):

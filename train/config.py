@@ -13,6 +13,7 @@ from typing import Any, ClassVar, Literal
 from pydantic import Field, field_validator, model_validator
 
 from svcore.config import ConfigModel, parse_sets, validate
+from svcore.errors import ConfigError
 from svcore.split import DEFAULT_HOLDOUT, DEFAULT_SEED
 from svcore.config import resolve as resolve_config
 
@@ -38,16 +39,6 @@ class ModelConfig(ConfigModel):
     zero_output: bool = False
     """start the output convolution at zero weights, so that the untrained network predicts exactly its output
     biases (a flat normal and a uniform plausible material) instead of random per-pixel maps."""
-
-    fullres_convs: int = Field(0, ge=0, le=4)
-    """convolutions (3x3, instance norm + global bias, leaky ReLU) at full resolution on the upsampled features and
-    the input image before the output layer (0: the output layer alone sees full resolution, as in the paper)."""
-    normal_head: bool = False
-    """a separate full-resolution head (3x3 conv -> leaky ReLU -> 3x3 conv) for the normal's two outputs instead of
-    sharing the output layer with the other maps."""
-    normal_param: Literal["unit", "slope"] = "unit"
-    """how the network's two normal outputs become a normal: "unit" (tanh -> unit x, y, z reconstructed) or "slope"
-    (the outputs are the surface slopes, n = normalize(-dx, -dy, 1): how blends treat normals)."""
     coord_channels: bool = False
     """two input channels with each pixel's position in its view (CoordConv): x along the columns and y along the
     rows, from -1 to 1 over the view's pixel centres, concatenated to the log-mapped photo before the first encoder
@@ -57,13 +48,6 @@ class ModelConfig(ConfigModel):
     normal_decoder: bool = False
     """a second decoder, with the main decoder's structure and its own weights, fed by the shared encoder's skips
     and global vector, gives the normal's two outputs; the main decoder gives the other seven."""
-
-    @model_validator(mode="after")
-    def _one_normal_branch(self) -> "ModelConfig":
-        if self.normal_head and self.normal_decoder:
-            raise ValueError("model.normal_head and model.normal_decoder both give the normal its own output; "
-                             "choose one")
-        return self
 
     def widths(self) -> list[int]:
         """Channels of each encoder level, finest first."""
@@ -138,27 +122,21 @@ class OptimConfig(ConfigModel):
     render_weight: float = Field(1.0, ge=0)
     """weight of the rendering loss (paper §4.3); 0 with ``map_l1`` > 0 is the paper's L1-on-the-maps comparison
     (no rendering term is computed at all)."""
-    grazing_lights: float = Field(0.0, ge=0, le=1)
-    """share of the rendering loss's diffuse lights redrawn near the horizon (elevation 4-15 degrees,
-    ``train.loss.GRAZING_DEG``), where relief changes the shading most (#22: "more grazing lights show relief
-    more"); 0 = the paper's cosine-hemisphere lights, the same draws as before the key existed."""
     map_l1: float = Field(0.0, ge=0)
     """weight of an L1 term on the packed maps added to the rendering loss (0 = the 2018 paper's loss alone; the
     2019 follow-up, Deschaintre et al. "Flexible SVBRDF capture", mixes both)."""
-    normal_loss: Literal["l2", "slope", "cosine", "rmse"] = "l2"
-    """the form of the ``normal_l2`` term: "l2" (squared error on the unit normals' x and y), "slope" (squared error on
-    the slopes x/z, y/z, which weights steep relief more), "cosine" (1 - cosine between the normals) or "rmse" (each
-    sample's RMSE in the (n+1)/2 encoding, averaged: the metric of ``svtrain eval``, which a pooled squared error
-    is not: it makes relief predicted on a flat material cost as much as the evaluation says it does)."""
+    normal_loss: Literal["l2", "rmse"] = "l2"
+    """the form of the ``normal_l2`` term: "l2" (squared error on the unit normals' x and y) or "rmse" (each sample's
+    RMSE in the (n+1)/2 encoding, averaged: the metric of ``svtrain eval``, which a pooled squared error is not: it
+    makes relief predicted on a flat material cost as much as the evaluation says it does)."""
     normal_l2: float = Field(0.0, ge=0)
     """weight of a squared-error term on the predicted normals' x and y added to the rendering loss (0 = off). The
     rendering loss alone leaves the normals flat within a CPU budget (README, known limits); RMSE is the metric, so
     the term is squared, not L1 (an L1 term pulls an uncertain tilt to its median, flat)."""
-    normal_late_loss: Literal["l2", "slope", "cosine", "rmse"] | None = None
+    normal_late_loss: Literal["l2", "rmse"] | None = None
     """the normal term's form from ``normal_late_from`` of the run on, with weight ``normal_late_weight`` (None: the
     ``normal_loss`` form throughout). With "rmse" after the l2 form the first part of a run learns relief and the
-    rest removes the relief the model is unsure of, as fine-tuning the l2-trained bundled model with it did
-    (results/shape_finetune.json); the rmse form alone from the first step predicts flat normals (#22)."""
+    rest removes the relief the model is unsure of (experiments/real_shape/REPORT.md)."""
     normal_late_from: float = Field(0.5, gt=0, lt=1)
     """share of ``iterations`` after which ``normal_late_loss`` replaces the ``normal_loss`` form."""
     normal_late_weight: float = Field(30.0, gt=0)
@@ -274,10 +252,65 @@ class Config(ConfigModel):
             raise ValueError(f"data.synthetic_size={d.synthetic_size} must be >= data.crop={d.crop}")
         return self
 
+    @classmethod
+    def stored(cls, values: dict[str, Any]) -> dict[str, Any]:
+        """A params file's ``train:`` section (a run's config.yaml, an older params.yaml) without the keys #41 retired
+        (:func:`drop_retired`)."""
+        return drop_retired(values)
+
     def check(self) -> "Config":
         """Validate again as a whole (after fields were assigned one by one, e.g. by a benchmark)."""
         validate(Config, self.as_dict())
         return self
+
+
+#: the last commit with the arms that #41 removed (with their config keys and code paths): the one that still runs a
+#: stored config using them.
+RETIRED_AT = "50a7983"
+
+#: config keys removed in #41 with their code paths (arms that lost), and the value each had by default, at which
+#: the removed path did nothing: a stored config holding one at that value means the same without it.
+RETIRED: dict[str, Any] = {"model.fullres_convs": 0, "model.normal_head": False, "model.normal_param": "unit",
+                           "optim.grazing_lights": 0.0}
+
+#: values of kept keys whose code paths #41 removed (the normal term's forms other than l2 and rmse).
+RETIRED_VALUES: dict[str, tuple[Any, ...]] = {"optim.normal_loss": ("slope", "cosine"),
+                                              "optim.normal_late_loss": ("slope", "cosine")}
+
+
+def drop_retired(values: dict[str, Any]) -> dict[str, Any]:
+    """A stored config (sections as nested mappings: a checkpoint's, a run's config.yaml, an older params.yaml)
+    without the :data:`RETIRED` keys, which it may hold at their old defaults only.
+
+    Args:
+        values: the config's sections (``{"model": {...}, "optim": {...}, ...}``); not modified.
+
+    Returns:
+        A copy without the retired keys.
+
+    Raises:
+        ConfigError: a retired key at another value, or a :data:`RETIRED_VALUES` value (one line naming the key and
+            the commit that still runs it).
+    """
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in values.items()}
+    for key, old in RETIRED.items():
+        section, _, name = key.partition(".")
+        if isinstance(out.get(section), dict) and name in out[section]:
+            value = out[section].pop(name)
+            # bool is an int in Python: False must not pass for 0, nor 0 for False
+            if value != old or isinstance(value, bool) != isinstance(old, bool):
+                raise ConfigError(_retired(key, value))
+    for key, gone in RETIRED_VALUES.items():
+        section, _, name = key.partition(".")
+        value = out.get(section, {}).get(name) if isinstance(out.get(section), dict) else None
+        if isinstance(value, str) and value in gone:
+            raise ConfigError(_retired(key, value))
+    return out
+
+
+def _retired(key: str, value: Any) -> str:
+    return (f"{Config.SECTION}.{key}={value!r}: this arm's code path was removed in #41; commit {RETIRED_AT} is the "
+            f"last that runs it (git checkout {RETIRED_AT})")
 
 
 def preset(name: str) -> Config:
@@ -300,6 +333,11 @@ def parse_overrides(items: list[str]) -> dict[str, Any]:
 
 
 def from_dict(d: dict[str, Any]) -> Config:
-    """Rebuild a Config written by :meth:`Config.to_dict` (checkpoints, config.yaml)."""
+    """Rebuild a Config written by :meth:`Config.to_dict` (checkpoints, config.yaml), retired keys dropped
+    (:func:`drop_retired`).
+
+    Raises:
+        ConfigError: an unknown key, a bad value, or a retired key at another value than its old default.
+    """
     # runs written before svcore.config recorded the preset name as a field; the values are complete without it
-    return validate(Config, {k: v for k, v in d.items() if k != "preset"})
+    return validate(Config, drop_retired({k: v for k, v in d.items() if k != "preset"}))

@@ -36,7 +36,7 @@ from svcore.progress import progress
 from svcore.seeds import stream_seed
 
 from . import checkpoint, dvc_metrics, heldout, loader_memory, runinfo, timing
-from .config import Config, OptimConfig
+from .config import Config, OptimConfig, drop_retired
 from .data import PairDataset, make_loader, open_source, split_for
 from .device import Placement, placement
 from .distributed import (PeerLost, World, broadcast, check_world, gather, is_collective_failure,
@@ -89,17 +89,13 @@ def lr_at(o: OptimConfig, step: int) -> float:
 
 def normal_term(pred: torch.Tensor, maps: torch.Tensor, kind: str = "l2") -> torch.Tensor:
     """The normal term's value (``optim.normal_loss``) on (B, 10, H, W) packed maps: mean squared error of the x, y
-    components ("l2") or of the slopes x/z, y/z ("slope"), the mean of 1 - cosine ("cosine"), or the mean over
-    samples of each sample's RMSE in the (n+1)/2 encoding ("rmse": what ``svtrain eval`` reports; unlike a pooled
-    squared error it weighs a sample's error by 1 / its RMSE, so relief predicted on a flat material costs much)."""
+    components ("l2"), or the mean over samples of each sample's RMSE in the (n+1)/2 encoding ("rmse": what
+    ``svtrain eval`` reports; unlike a pooled squared error it weighs a sample's error by 1 / its RMSE, so relief
+    predicted on a flat material costs much)."""
     p, t = pred[:, 0:3], maps[:, 0:3]
     if kind == "rmse":
         # 1e-8 under the root: a finite gradient at a perfect prediction (RMSE ~ 1e-4 at worst, far below the data's)
         return (((p - t) * 0.5) ** 2).mean((1, 2, 3)).add(1e-8).sqrt().mean()
-    if kind == "slope":
-        return ((p[:, 0:2] / p[:, 2:3].clamp(min=0.05) - t[:, 0:2] / t[:, 2:3].clamp(min=0.05)) ** 2).mean()
-    if kind == "cosine":
-        return (1.0 - (p * t).sum(1)).mean()
     return ((p[:, 0:2] - t[:, 0:2]) ** 2).mean()
 
 
@@ -217,7 +213,7 @@ class Trainer:
         returns (loss of the global batch, gradient norm)."""
         # all ranks draw the global batch's configurations (same generator state everywhere) and keep their rows
         lo = self.world.rank * self.batch
-        configs = sample_configs(self.global_batch, self.gen, grazing=self.cfg.optim.grazing_lights)
+        configs = sample_configs(self.global_batch, self.gen)
         configs = configs.rows(lo, lo + self.batch)
         loss, norm = train_step(self.model, self.opt, self.loss_fn, self.place.to(image), self.place.to(maps),
                                 self.gen, self.cfg.optim, step, place=self.place, scaler=self.scaler, configs=configs,
@@ -255,7 +251,8 @@ class Trainer:
         Raises:
             ConfigError: another model config, or another global batch (the data order would differ).
         """
-        if state["config"]["model"] != self.cfg.to_dict()["model"]:
+        # retired keys at their old defaults (a run from before #41) mean the same model
+        if drop_retired(state["config"])["model"] != self.cfg.to_dict()["model"]:
             raise ConfigError(f"{where} holds a run with a different model config; use a new --out or --no-resume")
         g_old = int(state.get("global_batch", state["config"]["optim"]["batch_size"]))
         n_old = int(state.get("world_size", 1))

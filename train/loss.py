@@ -27,10 +27,6 @@ R1_LOW, R1_HIGH = 0.001, 0.95
 #: log-distance of the specular configurations' light and viewer: exp(N(0.5, 0.75)).
 DIST_MU, DIST_SIGMA = 0.5, 0.75
 LOG_EPS = 0.01
-#: elevation range (degrees) of a grazing diffuse light (``optim.grazing_lights``): the cosine sampler puts a light
-#: lower than 15 degrees in 1 draw of 56, and none lower than 13 (R1_HIGH). Below 15 degrees a tilt t changes N·L/l_z
-#: by about t·cot(elevation) >= 3.7 t, against t at 45 degrees and t²/2 at the zenith.
-GRAZING_DEG = (4.0, 15.0)
 
 
 @dataclass
@@ -64,13 +60,10 @@ def cosine_hemisphere(shape: tuple[int, ...], gen: torch.Generator | None = None
 
 
 def sample_configs(batch: int, gen: torch.Generator | None = None, n_diffuse: int = N_DIFFUSE,
-                   n_specular: int = N_SPECULAR, grazing: float = 0.0) -> LossConfigs:
+                   n_specular: int = N_SPECULAR) -> LossConfigs:
     """Draw ``n_diffuse`` + ``n_specular`` configurations for each of ``batch`` samples.
 
-    Diffuse: light and view independent cosine-hemisphere directions, both distant. With ``grazing`` > 0 each
-    diffuse light is, with that probability, redrawn at an elevation uniform in :data:`GRAZING_DEG` (same
-    azimuth); those draws come after all others, so ``grazing`` = 0 draws exactly the paper's configurations
-    from the same generator state.
+    Diffuse: light and view independent cosine-hemisphere directions, both distant.
     Specular: v from the cosine hemisphere, l = (-vx, -vy, vz); positions v·exp(N(.5,.75)) and
     l·exp(N(.5,.75)) (independent draws), both shifted by the same (U(-1,1), U(-1,1), 0).
 
@@ -85,24 +78,12 @@ def sample_configs(batch: int, gen: torch.Generator | None = None, n_diffuse: in
     shift = torch.zeros(batch, n_specular, 3)
     shift[..., :2] = torch.rand((batch, n_specular, 2), generator=gen) * 2.0 - 1.0
     sv_pos = sv * dist[..., :1] + shift
-    if grazing > 0:
-        dl = _grazing(dl, grazing, gen)
     sl_pos = sl * dist[..., 1:] + shift
     zeros = torch.zeros(batch, n_diffuse, 1)
     ones = torch.ones(batch, n_specular, 1)
     light = torch.cat([torch.cat([dl, zeros], -1), torch.cat([sl_pos, ones], -1)], 1)
     view = torch.cat([torch.cat([dv, zeros], -1), torch.cat([sv_pos, ones], -1)], 1)
     return LossConfigs(light, view)
-
-
-def _grazing(dl: torch.Tensor, share: float, gen: torch.Generator | None) -> torch.Tensor:
-    """``dl`` (B, K, 3) with a ``share`` of its directions (drawn per direction) lowered to a grazing elevation."""
-    pick = torch.rand(dl.shape[:-1], generator=gen) < share
-    lo, hi = (math.radians(d) for d in GRAZING_DEG)
-    elev = torch.rand(dl.shape[:-1], generator=gen) * (hi - lo) + lo
-    xy = dl[..., :2] / dl[..., :2].norm(dim=-1, keepdim=True).clamp(min=1e-12)  # the azimuth (r1 >= 0.001: never 0)
-    low = torch.cat([xy * torch.cos(elev)[..., None], torch.sin(elev)[..., None]], -1)
-    return torch.where(pick[..., None], low, dl)
 
 
 def render_configs(maps: torch.Tensor, cfg: LossConfigs) -> torch.Tensor:

@@ -78,7 +78,7 @@ class SVBRDFNet(nn.Module):
     """Linear flash photo (B, 3, H, W) -> packed maps (B, 10, H, W) (normal, diffuse, specular, roughness).
 
     Options (ModelConfig): pixel coordinates as two more input channels (coord_channels), a second decoder for
-    the normal (normal_decoder), a separate normal head (normal_head), full-resolution convolutions (fullres_convs).
+    the normal (normal_decoder).
 
     H and W must be multiples of 2^levels.
     """
@@ -98,11 +98,7 @@ class SVBRDFNet(nn.Module):
             self.enc.append(GlobalConv(cin, c, 4, 2, 1, gdim, track))
             cin, gdim = c, c
         c_bottom = cin
-        self.dec, self.drop, self.fullres, out_in, gdim = build_decoder(cfg, c_bottom, gdim, cimg)
-        # Optional separate normal head (model.normal_head): its own hidden layer, the normal's two outputs.
-        self.normal_head = nn.Sequential(nn.Conv2d(out_in, w[0], 3, 1, 1), nn.LeakyReLU(0.2),
-                                         nn.Conv2d(w[0], 2, 3, 1, 1)) if cfg.normal_head else None
-        self.normal_param = cfg.normal_param
+        self.dec, self.drop, out_in, gdim = build_decoder(cfg, c_bottom, gdim, cimg)
         # Output layer at full resolution: skip from the input image; no norm, global bias only. With a normal
         # decoder it gives the 7 channels after the normal's two.
         n_out = 7 if cfg.normal_decoder else 9
@@ -128,9 +124,6 @@ class SVBRDFNet(nn.Module):
             b[k + 4:k + 7] = _logit(INIT_SPECULAR)
             if cfg.zero_output:
                 self.out_conv.weight.zero_()
-                if self.normal_head is not None:
-                    self.normal_head[2].weight.zero_()
-                    self.normal_head[2].bias.zero_()
                 if self.normal_decoder is not None:
                     self.normal_decoder.out_conv.weight.zero_()
 
@@ -151,15 +144,13 @@ class SVBRDFNet(nn.Module):
             x, g = layer(x, g)
             x = F.leaky_relu(x, 0.2)
             skips.append(x)
-        x, g_dec = decode(self.dec, self.drop, self.fullres, skips, g, x0)
+        x, g_dec = decode(self.dec, self.drop, skips, g, x0)
         o = self.out_conv(x)
         if self.out_bias is not None:
             o = o + self.out_bias(g_dec)[..., None, None]
-        if self.normal_head is not None:
-            o = torch.cat([self.normal_head(x), o[:, 2:]], 1)
         if self.normal_decoder is not None:
             o = torch.cat([self.normal_decoder(skips, g, x0), o], 1)
-        return outputs_to_maps(o, self.normal_param)
+        return outputs_to_maps(o)
 
 
 def pixel_coords(image: torch.Tensor) -> torch.Tensor:
@@ -182,17 +173,16 @@ def pixel_coords(image: torch.Tensor) -> torch.Tensor:
     return torch.cat([(2.0 * j - 1.0) / j[..., -1:] - 1.0, (2.0 * i - 1.0) / i[:, :, -1:] - 1.0], 1)
 
 
-def build_decoder(cfg: ModelConfig, cin: int, gdim: int, cimg: int
-                  ) -> tuple[nn.ModuleList, nn.ModuleList, nn.ModuleList, int, int]:
-    """The decoder's layers: per level (coarse to fine) its convolutions and dropout, then the full-resolution ones.
+def build_decoder(cfg: ModelConfig, cin: int, gdim: int, cimg: int) -> tuple[nn.ModuleList, nn.ModuleList, int, int]:
+    """The decoder's layers: per level (coarse to fine) its convolutions and dropout.
 
     Args:
         cin: channels of the coarsest encoder level. gdim: size of the global vector it receives.
         cimg: channels of the network's input as concatenated again at full resolution (3, or 5 with coordinates).
 
     Returns:
-        (decoder levels, their dropouts, full-resolution convolutions, channels the output layer receives, size of
-        the global vector the output layer receives).
+        (decoder levels, their dropouts, channels the output layer receives (the finest level's and the input's),
+        size of the global vector the output layer receives).
     """
     w = cfg.widths()
     track = cfg.global_track
@@ -206,18 +196,11 @@ def build_decoder(cfg: ModelConfig, cin: int, gdim: int, cimg: int
         dec.append(convs)
         drop.append(nn.Dropout(cfg.dropout) if n < cfg.dropout_levels and cfg.dropout > 0 else nn.Identity())
         cin = w[i]
-    # Optional full-resolution convolutions on the upsampled features + the input image (model.fullres_convs).
-    fullres = nn.ModuleList()
-    c_in = cin + cimg
-    for _ in range(cfg.fullres_convs):
-        fullres.append(GlobalConv(c_in, w[0], 3, 1, 1, gdim, track))
-        c_in, gdim = w[0], w[0]
-    out_in = c_in + (cimg if cfg.fullres_convs else 0)  # the image again beside the full-resolution features
-    return dec, drop, fullres, out_in, gdim
+    return dec, drop, cin + cimg, gdim
 
 
-def decode(dec: nn.ModuleList, drop: nn.ModuleList, fullres: nn.ModuleList, skips: list[torch.Tensor],
-           g: torch.Tensor | None, x0: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+def decode(dec: nn.ModuleList, drop: nn.ModuleList, skips: list[torch.Tensor], g: torch.Tensor | None,
+           x0: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
     """Run the layers of :func:`build_decoder` from the coarsest encoder level up to full resolution.
 
     Args:
@@ -236,19 +219,14 @@ def decode(dec: nn.ModuleList, drop: nn.ModuleList, fullres: nn.ModuleList, skip
             x = F.leaky_relu(x, 0.2)
         x = dp(x)
     x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), x0], 1)
-    for conv in fullres:
-        x, g = conv(x, g)
-        x = F.leaky_relu(x, 0.2)
-    if fullres:
-        x = torch.cat([x, x0], 1)
     return x, g
 
 
 class NormalDecoder(nn.Module):
     """A second decoder for the normal's two raw outputs (model.normal_decoder), as SVBRDF-GAN's two decoders.
 
-    The same structure as the main decoder (levels, dropout, full-resolution convolutions, output layer with its
-    global bias), with its own weights, fed by the shared encoder's skips and its global vector.
+    The same structure as the main decoder (levels, dropout, output layer with its global bias), with its own
+    weights, fed by the shared encoder's skips and its global vector.
 
     Args:
         cfg: the network's config. cin: channels of the coarsest encoder level. gdim: size of the encoder's global
@@ -257,7 +235,7 @@ class NormalDecoder(nn.Module):
 
     def __init__(self, cfg: ModelConfig, cin: int, gdim: int, cimg: int):
         super().__init__()
-        self.dec, self.drop, self.fullres, out_in, gdim = build_decoder(cfg, cin, gdim, cimg)
+        self.dec, self.drop, out_in, gdim = build_decoder(cfg, cin, gdim, cimg)
         self.out_conv = nn.Conv2d(out_in, 2, 3, 1, 1)
         nn.init.zeros_(self.out_conv.bias)  # a flat normal on average at the start
         self.out_bias = nn.Linear(gdim, 2) if cfg.global_track else None
@@ -267,7 +245,7 @@ class NormalDecoder(nn.Module):
 
     def forward(self, skips: list[torch.Tensor], g: torch.Tensor | None, x0: torch.Tensor) -> torch.Tensor:
         """Encoder skips (finest first), global vector (B, gdim) or None, input (B, cimg, H, W) -> (B, 2, H, W)."""
-        x, g = decode(self.dec, self.drop, self.fullres, skips, g, x0)
+        x, g = decode(self.dec, self.drop, skips, g, x0)
         o = self.out_conv(x)
         return o if self.out_bias is None else o + self.out_bias(g)[..., None, None]
 
@@ -276,20 +254,20 @@ def grow_normal_decoder(state: dict[str, torch.Tensor]) -> dict[str, torch.Tenso
     """A network's weights without ``model.normal_decoder`` -> the same function with it (fine-tuning a trained
     model into the two-decoder network, ``svtrain fit --init``).
 
-    The normal decoder starts as a copy of the main decoder (its levels, full-resolution convolutions and the
-    normal's two rows of the output layer and its global bias); the main output layer keeps the other seven rows.
+    The normal decoder starts as a copy of the main decoder (its levels and the normal's two rows of the output
+    layer and its global bias); the main output layer keeps the other seven rows.
     The grown network's maps equal the original's (up to float rounding; dropout draws differ in training), so a
     paired fine-tune against the original network starts from the same model and what differs is the option.
 
     Args:
-        state: a ``state_dict`` of :class:`SVBRDFNet` built with ``normal_decoder=False`` (and no normal head).
+        state: a ``state_dict`` of :class:`SVBRDFNet` built with ``normal_decoder=False``.
 
     Returns:
         A ``state_dict`` for the same config with ``normal_decoder=True``.
     """
     out: dict[str, torch.Tensor] = {}
     for k, v in state.items():
-        if k.startswith(("dec.", "drop.", "fullres.")):
+        if k.startswith(("dec.", "drop.")):
             out[k] = v.clone()
             out["normal_decoder." + k] = v.clone()
         elif k.startswith(("out_conv.", "out_bias.")):
@@ -330,21 +308,16 @@ def grow_coord_channels(state: dict[str, torch.Tensor], target: dict[str, torch.
     return out
 
 
-def outputs_to_maps(o: torch.Tensor, normal_param: str = "unit") -> torch.Tensor:
+def outputs_to_maps(o: torch.Tensor) -> torch.Tensor:
     """Raw 9-channel outputs -> packed maps.
 
     Args:
-        o: (B, 9, H, W): normal xy, diffuse (3), roughness (1), specular (3).
-        normal_param: "unit" (tanh -> x, y of the unit normal) or "slope" (the outputs are the surface's slopes
-            dh/dx, dh/dy and n = normalize(-dx, -dy, 1)).
+        o: (B, 9, H, W): normal xy (tanh -> x, y of the unit normal), diffuse (3), roughness (1), specular (3).
 
     Returns:
         (B, 10, H, W): unit normal with reconstructed z > 0, diffuse, specular in [0, 1], roughness in
         [ROUGHNESS_MIN, 1].
     """
-    if normal_param == "slope":
-        n = torch.cat([-o[:, 0:2], torch.ones_like(o[:, 0:1])], 1)
-        return _maps(n * torch.rsqrt((n * n).sum(1, keepdim=True)), o)
     xy = torch.tanh(o[:, 0:2])
     # z from the unit-length constraint; the floor keeps sqrt's gradient finite when |xy| -> 1,
     # and the normalisation brings |xy| > 1 back onto the sphere.
