@@ -101,18 +101,21 @@ _SOURCES: dict[str, SVBRDFStore] = {}
 def _chunk_task(c: int, threads: int, *, partial: str, source: str, cfg: BlendConfig, n_variants: int, n: int) -> int:
     if source not in _SOURCES:  # once per worker process: its chunk cache then serves every task
         _SOURCES.clear()
-        _SOURCES[source] = SVBRDFStore(source, "variants")
+        # whole shards where the stage draws at least as many parents as there are variants: most samples of each
+        # shard are then read anyway, and one read per shard costs less than one per sample (ChunkCache)
+        _SOURCES[source] = SVBRDFStore(source, "variants", whole_shards=2 * n >= n_variants)
     src = _SOURCES[source]
     start, stop = c * cfg.chunk, min(n, (c + 1) * cfg.chunk)
-    maps = {k: [] for k in MAP_NAMES}
+    data: dict[str, np.ndarray] = {}  # the chunk's map arrays, encoded into row by row (no per-sample copies)
     rows = []
     for j in range(start, stop):
         d = draw(j, n_variants, cfg)
-        for k, v in encode_maps(make_blend(src, d, cfg).validate()).items():
-            maps[k].append(v)
+        m = make_blend(src, d, cfg).validate()
+        if not data:
+            data = {k: np.empty((stop - start, *getattr(m, k).shape), np.uint16) for k in MAP_NAMES}
+        encode_maps(m, {k: a[j - start] for k, a in data.items()})
         rows.append(d)
     pre = src.preset_table()[:, 0]
-    data = {k: np.stack(v) for k, v in maps.items()}
     data["seed"] = np.array([r["seed"] for r in rows], np.uint64)
     data["parents"] = np.array([[r["a"], r["b"]] for r in rows], np.int64)
     data["preset"] = np.array([[pre[r["a"]], pre[r["b"]]] for r in rows], np.int32)

@@ -191,15 +191,15 @@ def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, 
     """
     start, stop = c * chunk, min(len(specs), (c + 1) * chunk)
     n = stop - start
-    maps = {k: [] for k in materials.MAP_NAMES}
+    data: dict[str, np.ndarray] = {}  # the chunk's map arrays, encoded into row by row (no per-sample copies)
     params = np.full((n, max_params), np.nan, np.float32)
     for j, spec in enumerate(specs[start:stop]):
         m, pv = spec.make(sigma, size)
-        m = relief.apply(m, spec.seed, modes=spec.relief_modes)
-        for k, v in encode_maps(m.validate()).items():
-            maps[k].append(v)
+        m = relief.apply(m, spec.seed, modes=spec.relief_modes).validate()
+        if not data:
+            data = {k: np.empty((n, *getattr(m, k).shape), np.uint16) for k in materials.MAP_NAMES}
+        encode_maps(m, {k: a[j] for k, a in data.items()})
         params[j, :len(pv)] = list(pv.values())
-    data = {k: np.stack(v) for k, v in maps.items()}
     data["params"] = params
     data["seed"] = np.array([s.seed for s in specs[start:stop]], np.uint64)
     data["preset"] = np.array([[preset_index[s.preset], -1] for s in specs[start:stop]], np.int32)

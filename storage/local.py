@@ -475,12 +475,21 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
         data: array name -> (n_in_chunk, *sample_shape) values already in the on-disk dtype.
     """
     g = zarr.open_group(partial, mode="r+")
+    written = {}
     for name, arr in data.items():
-        g[name][start:start + len(arr)] = arr
+        a = g[name]
+        shard = encode_shard(a, c, start, arr)
+        if shard is None:  # a layout or values the direct encoder does not take: zarr writes it
+            a[start:start + len(arr)] = arr
+        else:
+            path = Path(partial) / name / _chunk_key(a, c)
+            _atomic_write(path, shard)
+            written[name] = [len(shard), hashlib.sha256(shard).hexdigest()[:32]]
     _fail_once_hook(c)
     # the marker is the chunk's record in the manifest-to-be: size and hash of each array's chunk file, hashed
-    # here, once, by the worker that wrote it
-    record = {name: _file_record(Path(partial) / name / _chunk_key(g[name], c)) for name in data}
+    # here, once, by the worker that wrote it (from the bytes it wrote, where it encoded the shard itself)
+    record = {name: written[name] if name in written else _file_record(Path(partial) / name / _chunk_key(g[name], c))
+              for name in data}
     marker = Path(partial) / DONE_DIR / str(c)
     tmp = marker.with_suffix(".tmp")
     tmp.write_text(json.dumps(record, sort_keys=True))
@@ -491,6 +500,97 @@ def write_chunk(partial: str | os.PathLike, c: int, start: int, data: dict[str, 
         import errno
 
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(Path(partial) / DONE_DIR))
+
+
+#: the codecs :func:`encode_shard` writes itself: :func:`array_layout`'s (sharded, zstd without checksum, CRC32C,
+#: little-endian bytes, index at the end). An array with any other metadata is written by zarr.
+_INNER_CODECS = ({"name": "bytes", "configuration": {"endian": "little"}}, "zstd", {"name": "crc32c"})
+_INDEX_CODECS = ({"name": "bytes", "configuration": {"endian": "little"}}, {"name": "crc32c"})
+_ZSTD: dict = {}
+
+
+def _crc32c(b) -> bytes:
+    import google_crc32c
+
+    return np.uint32(google_crc32c.value(b)).tobytes()
+
+
+def encode_shard(arr: zarr.Array, c: int, start: int, values: np.ndarray) -> bytes | None:
+    """The bytes zarr writes for shard ``c`` of ``arr`` holding ``values``, encoded here, or None where zarr must
+    write it (any layout but :func:`array_layout`'s, a dtype zarr would cast, a region that is not the whole shard,
+    or an inner chunk all fill value, which zarr leaves out of the shard).
+
+    The same codec calls as zarr's sharding codec (numcodecs' Zstd at the array's level, CRC32C appended to each
+    inner chunk, the uint64 (offset, length) index with its CRC32C at the end, inner chunks in order along the
+    sample axis), without its per-chunk asyncio tasks, thread hand-offs and two whole-array fill-value scans, which
+    cost about as much CPU as the compression itself (experiments/sample_rate/REPORT.md). Same bytes:
+    tests/test_store_fast_write.py compares them with zarr's for every layout the stages write.
+    """
+    meta = arr.metadata
+    try:
+        (sharding,) = meta.to_dict()["codecs"]
+        cfg = sharding["configuration"]
+        inner_codecs = cfg["codecs"]
+        if (sharding["name"] != "sharding_indexed" or str(cfg.get("index_location", "end")) != "end"
+                or tuple(cfg["index_codecs"]) != _INDEX_CODECS or len(inner_codecs) != 3
+                or inner_codecs[0] != _INNER_CODECS[0] or inner_codecs[2] != _INNER_CODECS[2]
+                or inner_codecs[1]["name"] != "zstd" or inner_codecs[1]["configuration"].get("checksum", False)):
+            return None
+        level = int(inner_codecs[1]["configuration"]["level"])
+        inner = tuple(cfg["chunk_shape"])
+    except (KeyError, TypeError, ValueError, AttributeError):
+        return None
+    shard, shape = tuple(arr.shards or ()), tuple(arr.shape)
+    sample = shape[1:]
+    dtype = np.dtype(arr.dtype)
+    if (not shard or shard[1:] != sample or inner[1:] != sample or inner[0] not in (1, shard[0])
+            or shard[0] % inner[0] or meta.fill_value != 0 or dtype.byteorder == ">"
+            or meta.to_dict().get("chunk_key_encoding") != {"name": "default", "configuration": {"separator": "/"}}):
+        return None
+    n_shard = shard[0]
+    stop = min(shape[0], (c + 1) * n_shard)
+    values = np.asarray(values)
+    if start != c * n_shard or values.shape != (stop - start, *sample) or values.dtype != dtype:
+        return None
+    k = inner[0]
+    if k == 1:  # one inner chunk per sample; the samples past the array's end are not in the shard (all fill)
+        chunks = list(np.ascontiguousarray(values).reshape(len(values), -1))
+    else:  # one inner chunk, the shard, padded with the fill value past the array's end
+        full = np.zeros((n_shard, *sample), dtype)
+        full[:len(values)] = values
+        chunks = [full.reshape(-1)]
+    if not all(bool(ch.any()) for ch in chunks):  # (NaN counts as set, -0.0 as fill: zarr's all_equal(0))
+        return None
+    zstd = _ZSTD.get(level)
+    if zstd is None:
+        from numcodecs import Zstd
+
+        zstd = _ZSTD[level] = Zstd(level=level, checksum=False)
+    index = np.full((n_shard // k, 2), np.iinfo(np.uint64).max, "<u8")
+    parts, offset = [], 0
+    for i, ch in enumerate(chunks):
+        body = zstd.encode(ch.view(np.uint8))
+        parts += [body, _crc32c(body)]
+        index[i] = offset, len(body) + 4
+        offset += len(body) + 4
+    ib = index.tobytes()
+    return b"".join(parts + [ib, _crc32c(ib)])
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    """Write a chunk file as zarr's LocalStore does: a temporary ``.{uuid hex}.partial`` beside it (:data:`ZARR_TMP`),
+    renamed into place."""
+    import uuid
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".{uuid.uuid4().hex}.partial")
+    try:
+        with tmp.open("wb") as f:
+            f.write(data)
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def side_write(partial, rel: str, data: bytes) -> None:
@@ -724,10 +824,11 @@ def verify_store(path: str | os.PathLike) -> int:
 _ALL_KINDS = ("variants", "blends", "stress", "renders")
 
 
-def read_region(g: zarr.Group, name: str, start: int, stop: int) -> np.ndarray:
-    """Read samples [start, stop) of an array, naming the chunk if it is corrupt."""
+def read_region(g: zarr.Group, name: str, start: int, stop: int, arr: zarr.Array | None = None) -> np.ndarray:
+    """Read samples [start, stop) of an array, naming the chunk if it is corrupt. ``arr``: ``g[name]`` already
+    opened (each ``g[name]`` reads the array's metadata from the store again)."""
     try:
-        return g[name][start:stop]
+        return (g[name] if arr is None else arr)[start:stop]
     except Exception as e:
         arr = g[name]
         chunk = (arr.shards or arr.chunks)[0]  # the object: a shard (schema 3) or a chunk (schema 2)
@@ -742,23 +843,30 @@ class ChunkCache:
     decompress a whole chunk, and pay zarr's per-call overhead, for every single sample. The unit is zarr's chunk:
     in a sharded store (schema 3) the inner chunk, one sample of an image or map array (:func:`array_layout`).
 
+    With ``whole_shards`` the unit is the shard (one task's samples): a reader that will touch most samples of a
+    store (a blend stage with at least as many parent draws as variants) reads each shard once, where one read per
+    sample costs about 2.5x the CPU per sample (zarr's per-call work and the shard index read again each time;
+    experiments/sample_rate/REPORT.md).
+
     Args:
         group: an open store.
         budget_bytes: decoded bytes kept at most.
+        whole_shards: read and keep whole shards, not inner chunks.
     """
 
-    def __init__(self, group: zarr.Group, budget_bytes: int = 3 << 30):
-        self.group, self.budget = group, int(budget_bytes)
+    def __init__(self, group: zarr.Group, budget_bytes: int = 3 << 30, whole_shards: bool = False):
+        self.group, self.budget, self.whole_shards = group, int(budget_bytes), bool(whole_shards)
         self._chunks: dict[tuple[str, int], np.ndarray] = {}
         self._bytes = 0
         self._len = {}
+        self._arrays: dict[str, zarr.Array] = {}
 
     def chunk(self, name: str, c: int) -> np.ndarray:
         """Chunk ``c`` of array ``name`` along the sample axis (read once, then from memory)."""
         key = (name, c)
         if key not in self._chunks:
             n = self._chunk_len(name)
-            a = read_region(self.group, name, c * n, (c + 1) * n)
+            a = read_region(self.group, name, c * n, (c + 1) * n, self._array(name))
             while self._chunks and self._bytes + a.nbytes > self.budget:
                 self._bytes -= self._chunks.pop(next(iter(self._chunks))).nbytes
             self._chunks[key] = a
@@ -770,7 +878,13 @@ class ChunkCache:
         n = self._chunk_len(name)
         return self.chunk(name, i // n)[i % n]
 
+    def _array(self, name: str) -> zarr.Array:
+        if name not in self._arrays:
+            self._arrays[name] = self.group[name]
+        return self._arrays[name]
+
     def _chunk_len(self, name: str) -> int:
         if name not in self._len:
-            self._len[name] = int(self.group[name].chunks[0])
+            arr = self._array(name)
+            self._len[name] = int(((self.whole_shards and arr.shards) or arr.chunks)[0])
         return self._len[name]

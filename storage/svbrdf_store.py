@@ -117,15 +117,21 @@ def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpe
     return {**map_specs(size), **per_kind[kind]}
 
 
-def encode_maps(m: SVBRDF) -> dict[str, np.ndarray]:
-    """SVBRDF -> on-disk uint16 arrays (one sample, no batch axis)."""
-    out = {}
+def encode_maps(m: SVBRDF, out: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """SVBRDF -> on-disk uint16 arrays (one sample, no batch axis); with ``out`` (map name -> uint16 array of the
+    sample's shape, e.g. a row of a chunk's array) written into those and returned, not allocated."""
+    res = {}
     for k in MAP_NAMES:
         a = encode_normal(m.normal) if k == "normal" else getattr(m, k)
         t = np.clip(a, 0.0, 1.0)  # a new array: scaled and rounded in place (two fewer temporaries per map)
         t *= Q
-        out[k] = np.round(t, out=t).astype(np.uint16)
-    return out
+        np.round(t, out=t)
+        if out is None:
+            res[k] = t.astype(np.uint16)
+        else:  # the cast astype does (float32 -> uint16), into the caller's array
+            np.copyto(out[k], t, casting="unsafe")
+            res[k] = out[k]
+    return res
 
 
 def decode_maps(d: dict[str, np.ndarray]) -> SVBRDF:
@@ -147,18 +153,21 @@ class SVBRDFStore:
         kind: accepted kinds (default both).
         cache_bytes: bytes of decoded chunks kept (default :attr:`CACHE_BYTES`; a sequential reader needs one
             chunk).
+        whole_shards: the cache reads whole shards (:class:`~storage.local.ChunkCache`), for a reader that will
+            touch most samples.
     """
 
     CACHE_BYTES = 3 << 30
 
-    def __init__(self, path, kind: str | tuple[str, ...] = KINDS, cache_bytes: int | None = None):
+    def __init__(self, path, kind: str | tuple[str, ...] = KINDS, cache_bytes: int | None = None,
+                 whole_shards: bool = False):
         self.path = path
         self.group = open_store(path, kind)
         self.attrs = dict(self.group.attrs)
         self.kind = self.attrs["svgen"]["kind"]
         self.presets: list[str] = list(self.attrs.get("presets", []))
         self.size = int(self.group["diffuse"].shape[1])
-        self._cache = ChunkCache(self.group, self.CACHE_BYTES if cache_bytes is None else cache_bytes)
+        self._cache = ChunkCache(self.group, self.CACHE_BYTES if cache_bytes is None else cache_bytes, whole_shards)
 
     def __len__(self) -> int:
         return int(self.group["diffuse"].shape[0])
