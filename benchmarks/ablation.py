@@ -51,7 +51,7 @@ FACTORS: dict[str, dict[str, dict[str, object]]] = {
              "l1": {"optim.render_weight": 0.0, "optim.map_l1": 1.0, "optim.normal_l2": 0.0}},
     "data": {"blends": {"data.blends": True}, "variants": {"data.blends": False}},
     # not one of the paper's claims: #10's open question (is the compact width 8 too narrow for 2 cores?) asked at
-    # the grid's budget with its seeds; width 16 as bench_train_budget sweeps it (max_width = 8 x base)
+    # the grid's budget with its seeds; width 16 as experiments/train_budget swept it (max_width = 8 x base)
     "width": {"8": {"model.base_width": 8, "model.max_width": 64},
               "16": {"model.base_width": 16, "model.max_width": 128}},
 }

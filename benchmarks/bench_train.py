@@ -90,7 +90,7 @@ def bench_loader(cfg, src, train_idx, batches: int, workers: int) -> float:
 
 def build_store(root: Path, res: int) -> Path:
     """A small renders store (4 SVBRDFs x 5 views at ``res``²) made by svgen in a child process: this process must
-    run no drjit kernel before the loader forks its workers (see benchmarks/bench_train_budget.py)."""
+    run no drjit kernel before the loader forks its workers (see experiments/train_budget/bench_train_budget.py)."""
     code = (f"from pipeline.config import RenderConfig, SampleConfig\n"
             f"from pipeline.render.stage import run_render\n"
             f"from svcore.config import build\n"

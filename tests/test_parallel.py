@@ -113,7 +113,7 @@ def test_a_task_whose_workers_keep_dying_is_one_clear_error():
 def test_local_workers_keep_glibc_malloc_behaviour(monkeypatch, exported):
     """dask's nanny exports MALLOC_TRIM_THRESHOLD_=65536 to its workers, which turns off glibc's dynamic mmap
     threshold: every map-sized array is then a fresh mmap, and the data stages spent more CPU in the kernel than
-    in their work (benchmarks/results/worker_env.json). svgen's local workers must not get it; a value the user
+    in their work (experiments/worker_env). svgen's local workers must not get it; a value the user
     exported still reaches them."""
     from pipeline.exec.parallel import dask_client
 

@@ -211,11 +211,10 @@ class Config(ConfigModel):
 
     SECTION: ClassVar[str] = "train"
     DEFAULT_PRESET: ClassVar[str] = "compact"
-    # compact: the width and the loss terms chosen by measurement (benchmarks/bench_train_budget.py and the probes
-    # beside it): the smallest base width whose held-out re-render RMSE after ~10 min on 2 cores is within 5 % of
-    # the next larger width's (results/train_budget.json); grad_clip cuts only the gradient spikes that otherwise
-    # saturated the larger widths at lr 1e-3 (results/train_budget_constant_noclip.json); zero_output and
-    # normal_l2 from results/probe_zero_output.json and results/probe_normal_l2_*.json (README, "Known limits").
+    # compact: the width and the loss terms chosen by measurement (experiments/train_budget and
+    # experiments/normal_supervision): the smallest base width whose held-out re-render RMSE after ~10 min on 2
+    # cores is within 5 % of the next larger width's; grad_clip cuts only the gradient spikes that otherwise
+    # saturated the larger widths at lr 1e-3; zero_output and normal_l2 from the normal-supervision probes.
     # The numbers live in those files, not here, so that rerunning a benchmark cannot leave this comment stale.
     # base_width 16 (max 128) since #22: the shape grid (results/shape.json) found width 16 the network change that
     # most lowers held-out normal RMSE relative to flat, also at equal CPU time (its probe beats width 8 at 2x the

@@ -4,7 +4,7 @@
     python3 benchmarks/charts --out runs/charts   # both into one folder (the DVC `charts` stage)
 
 1. render: time per view against error to a converged reference (bench_render_quality.py), default marked;
-2. training: held-out re-render RMSE against training wall time per width (bench_train_budget.py);
+2. training: held-out re-render RMSE against training wall time per width (experiments/train_budget, frozen);
 3. scale-out: views/s against dask workers, local and a loopback cluster (bench_scaleout.py);
 4. agreement: torch flash render against Mitsuba at increasing spp (bench_agreement.py);
 5. stress: the pipeline's stress-suite evaluation beside its held-out one (runs/eval*, written by `dvc repro`);
@@ -25,6 +25,8 @@ if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py
 from harness import IMG, RESULTS, ROOT, parser, pyplot, save_figure, write_csv  # noqa: E402
 
 plt = pyplot()
+#: the width sweep behind the training chart: a finished experiment, its results frozen there
+TRAIN_BUDGET = ROOT / "experiments" / "train_budget" / "results"
 CSV = RESULTS  # --out sends the PNGs and CSVs into one folder
 
 
@@ -117,11 +119,13 @@ def chart_stress() -> Path | None:
                      "(dvc repro default model; bar labels: views)")
 
 
-def _external(module: str, func: str, json_name: str, png: str) -> Path | None:
-    """Charts whose plotting lives beside their benchmark: ``func(json_path, png_path)``."""
-    if not (RESULTS / json_name).exists():
+def _external(module: str, func: str, json_name: str, png: str, results: Path | None = None) -> Path | None:
+    """Charts whose plotting lives beside their benchmark: ``func(json_path, png_path)``; ``results`` is the folder
+    of ``json_name`` (default benchmarks/results)."""
+    src = (results or RESULTS) / json_name
+    if not src.exists():
         return None
-    getattr(importlib.import_module(module), func)(RESULTS / json_name, IMG / png)
+    getattr(importlib.import_module(module), func)(src, IMG / png)
     return IMG / png
 
 
@@ -138,7 +142,7 @@ def main(argv=None) -> int:
         IMG = CSV = args.out.resolve()
         IMG.mkdir(parents=True, exist_ok=True)
     made = {"render": chart_render(), "training": _external("charts.training", "plot", "train_budget.json",
-                                                            "chart_training.png"),
+                                                            "chart_training.png", TRAIN_BUDGET),
             "scale-out": chart_scaleout(),
             "agreement": _external("charts.agreement", "chart_agreement", "agreement.json",
                                        "chart_agreement.png"),

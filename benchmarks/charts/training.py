@@ -1,9 +1,11 @@
 """Chart 2 of #5: held-out re-render RMSE against training wall time, one line per network width.
 
-Reads the JSON of ``benchmarks/bench_train_budget.py``; baselines are horizontal lines, the compact default is
-drawn heavier, with a star at its end of budget. A DVC charts stage can rebuild the PNG from the JSON alone:
+Reads the JSON of ``experiments/train_budget/bench_train_budget.py`` (a finished width sweep, frozen there);
+baselines are horizontal lines, the compact default is drawn heavier, with a star at its end of budget. A DVC
+charts stage can rebuild the PNG from the JSON alone:
 
-    python3 benchmarks/charts/training.py [benchmarks/results/train_budget.json [docs/img/chart_training.png]]
+    python3 benchmarks/charts/training.py \
+        [experiments/train_budget/results/train_budget.json [docs/img/chart_training.png]]
 """
 from __future__ import annotations
 
@@ -13,9 +15,9 @@ from pathlib import Path
 
 if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py is one folder up
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from harness import IMG, RESULTS, pyplot, save_figure  # noqa: E402
+from harness import IMG, ROOT, pyplot, save_figure  # noqa: E402
 
-DEFAULT_JSON = RESULTS / "train_budget.json"
+DEFAULT_JSON = ROOT / "experiments" / "train_budget" / "results" / "train_budget.json"
 DEFAULT_PNG = IMG / "chart_training.png"
 
 BASELINE_STYLE = {"input_as_diffuse": ("input as diffuse", "0.35", "--"),

@@ -95,7 +95,7 @@ def main(argv=None) -> None:
     rows = []
     for obj in a.objectives:
         # one spawned process per objective: a process that has run drjit (the previous objective's evaluation reads
-        # maps through it) must not fork loader workers (they hang; see bench_train_budget.prepare_eval)
+        # maps through it) must not fork loader workers (they hang; see experiments/train_budget/bench_train_budget.prepare_eval)
         with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
             rows.append(ex.submit(run, obj, a.store, a.steps, a.every).result())
         print(json.dumps(rows[-1]), flush=True)

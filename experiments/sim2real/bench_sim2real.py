@@ -6,7 +6,7 @@ What it runs, each step the command a user runs (so the figures are those of the
    default DVC pipeline's store, into ``WORK/train/`` (a finished store there is reused);
 2. training (skipped with ``--checkpoint``): ``svtrain fit --params params.yaml --iterations STEPS`` into
    ``WORK/run`` (a finished run of the same steps there is reused). STEPS: ``--steps``, or ``--budget-s`` times the
-   quiet it/s of the model's width in ``--calibration`` (``bench_train_budget.py --calibrate-only``), else
+   quiet it/s of the model's width in ``--calibration`` (``experiments/train_budget/bench_train_budget.py --calibrate-only``), else
    params.yaml ``train.optim.iterations`` (the ``dvc repro`` model);
 3. the reference at each ``--crops`` fraction: ``svgen reference REF WORK/ref_crop<C> --params params.yaml --crop C``
    (imported at the stated physical scale, rendered with the training views; reused when finished);

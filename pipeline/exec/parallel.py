@@ -95,8 +95,8 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
     # MALLOC_TRIM_THRESHOLD_ unset (None): dask's nanny sets it to 64 KiB in every worker, and setting it at all
     # turns off glibc's dynamic mmap threshold, so every map-sized array (> 128 KiB) is a fresh mmap, page-faulted
     # in and unmapped again: the data stages spent more CPU in the kernel than in their work (svgen sample with 2
-    # workers: 47.9 s wall, 45 s system CPU, 18.8 s without; benchmarks/bench_worker_env.py -> worker_env.json). A value the user exported still holds
-    # (the workers inherit this process's environment).
+    # workers: 47.9 s wall, 45 s system CPU, 18.8 s without; experiments/worker_env). A value the user exported
+    # still holds (the workers inherit this process's environment).
     with dask.config.set({"distributed.worker.daemon": False,
                           "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
         # a failing task's exception reaches the client (fut.result() re-raises it, and the CLI prints one line);

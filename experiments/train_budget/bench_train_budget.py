@@ -14,13 +14,14 @@ so the final point is the model ``svtrain fit`` gives with ``optim.iterations`` 
 is not counted as training time. The loss compile (torch.compile, one-off, cached on disk) runs before the clock
 starts; whether it is used at all is decided by a short eager-vs-compiled timing of the loss at the start.
 
-Outputs: ``benchmarks/results/train_budget.json`` and ``.csv``, ``benchmarks/results/eval_budget.md`` (the
-``--table-width`` model, by default the compact one, after its budget, model vs baselines) and ``docs/img/chart_training.png``
-(``benchmarks/charts/training.py``).
+Outputs (in ``--out``, default this experiment's ``results/``): ``train_budget.json`` and ``.csv``,
+``eval_budget.md`` (the ``--table-width`` model, by default the compact one, after its budget, model vs baselines)
+and ``docs/img/chart_training.png`` (``benchmarks/charts/training.py``).
 
-    python3 benchmarks/bench_train_budget.py --table-width 8          # widths 8/16/32 x 10 min (train_budget.json)
-    python3 benchmarks/bench_train_budget.py --widths 8 --budget-s 1800 --out benchmarks/results/budget_30min --png ''
-    python3 benchmarks/bench_train_budget.py --widths 8 --steps 2707 --set optim.map_l1=0.1 --out /tmp/p --png ''  # A/B
+    S=experiments/train_budget
+    python3 $S/bench_train_budget.py --table-width 8          # widths 8/16/32 x 10 min (train_budget.json)
+    python3 $S/bench_train_budget.py --widths 8 --budget-s 1800 --out $S/results/budget_30min --png ''
+    python3 $S/bench_train_budget.py --widths 8 --steps 2707 --set optim.map_l1=0.1 --out /tmp/p --png ''  # A/B
 
 On a shared machine, calibrate on a quiet moment and train later: ``--calibrate-only F`` writes each width's
 quiet it/s and step count to F (a few minutes); ``--steps-from F`` then trains exactly those steps whatever the
@@ -28,8 +29,8 @@ load, and every point also records ``budget_s`` (steps / quiet it/s, the trainin
 the quiet machine), which the chart uses as its x axis. Training is deterministic, so the errors are the ones a
 quiet run would give; only the recorded wall times are stretched by the load.
 
-    python3 benchmarks/bench_train_budget.py --calibrate-only benchmarks/results/train_budget_calibration.json
-    python3 benchmarks/bench_train_budget.py --steps-from benchmarks/results/train_budget_calibration.json --table-width 8
+    python3 $S/bench_train_budget.py --calibrate-only $S/results/train_budget_calibration.json
+    python3 $S/bench_train_budget.py --steps-from $S/results/train_budget_calibration.json --table-width 8
 """
 from __future__ import annotations
 
@@ -50,7 +51,11 @@ from train.fit import Trainer, lr_at
 from train.loss import make_loss
 from train.net import count_parameters
 
-from harness import IMG, RESULTS, ROOT, parser, write_csv, write_results
+# harness.py stays in benchmarks/; this finished experiment imports it from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import IMG, ROOT, parser, write_csv, write_results  # noqa: E402
+
+RESULTS = Path(__file__).resolve().parent / "results"
 
 BASELINES = ("input_as_diffuse", "dataset_mean")
 #: eval points as fractions of the budget (plus step 0).
@@ -348,7 +353,7 @@ def main(argv=None) -> None:
             print(json.dumps({"base_width": w, **cal[str(w)]}), flush=True)
         write_results(Path(a.calibrate_only), {
             "benchmark": "bench_train_budget --calibrate-only", "budget_wall_s": a.budget_s, "compile_loss": a.compile,
-            "widths": cal, "command": "python3 benchmarks/bench_train_budget.py " + " ".join(argv or sys.argv[1:])},
+            "widths": cal, "command": "python3 experiments/train_budget/bench_train_budget.py " + " ".join(argv or sys.argv[1:])},
             a.note)
         return
     train_idx, test_idx = split_by_source(src, cfg0.data.holdout, split_seed)
@@ -387,7 +392,7 @@ def main(argv=None) -> None:
             f"; not on: {', '.join(c for c, v in eval_budget['beats_baselines'].items() if not v) or 'none'}\n"
             f"with the 95 % interval of the gain above 0 against both baselines on: "
             f"{', '.join(c for c, v in eval_budget['beats_beyond_noise'].items() if v) or 'none'}\n")
-    res = {"benchmark": "bench_train_budget", "command": "python3 benchmarks/bench_train_budget.py "
+    res = {"benchmark": "bench_train_budget", "command": "python3 experiments/train_budget/bench_train_budget.py "
            + " ".join(argv if argv is not None else sys.argv[1:]),
            "store": a.store, "overrides": a.set, "budget_wall_s": a.budget_s, "lr": a.lr, "schedule": a.schedule,
            "grad_clip": a.grad_clip, "beta1": 0.5, "batch_size": a.batch,
