@@ -2,7 +2,7 @@
 
 Makes one variants store with the default sample config (``--per-preset`` variants of every preset), then times
 ``svgen blend V B --count N --workers W`` and a small run of ``--small`` blends, each in its own process
-(:func:`bench_paper_scale.run_stage`: wall, CPU of the process tree, peak RSS), ``--rounds`` times. The steady rate
+(:func:`harness.run_child` in the code's own folder: wall, CPU of the process tree, peak RSS), ``--rounds`` times. The steady rate
 is (N - small) / (wall_N - wall_small): the per-blend work without the start of the cluster and the store.
 ``--against DIR`` measures another checkout's code the same way in the same call (its ``PYTHONPATH``), rounds
 interleaved, so that a speed change is compared on one machine in one state.
@@ -28,7 +28,7 @@ import tempfile
 from pathlib import Path
 
 from bench_paper_scale import run_stage
-from harness import RESULTS, ROOT, parser, write_results
+from harness import RESULTS, ROOT, SVGEN, parser, run_child, write_results
 
 AIM = 200.0
 
@@ -54,7 +54,7 @@ def compute_ms(code: Path, v: Path, n: int) -> float:
     """CPU ms per blend of ``code``'s blend arithmetic (:data:`COMPUTE`), in its own process."""
     env = {**os.environ, "PYTHONPATH": str(code), "OMP_NUM_THREADS": "1"}
     r = subprocess.run([sys.executable, "-c", COMPUTE, str(v), str(n // 2), str(n)], env=env, capture_output=True,
-                       text=True, check=True)
+                       text=True, check=True, cwd=str(code))  # (the code's folder: see measure)
     return round(float(r.stdout.strip().splitlines()[-1]), 3)
 
 
@@ -64,7 +64,11 @@ def measure(code: Path, v: Path, work: Path, count: int, small: int, workers: in
     out = {}
     for name, n in (("full", count), ("small", small)):
         b = work / f"{tag}_{name}.zarr"
-        out[name] = run_stage(["blend", str(v), str(b), "--count", str(n), "--workers", str(workers)], env)
+        # in the code's own folder: ``python -c`` puts the working directory ahead of PYTHONPATH, so from another
+        # checkout's root both arms ran that checkout's code (every --against figure before #42's fix)
+        m = run_child([*SVGEN, "blend", str(v), str(b), "--count", str(n), "--workers", str(workers)], env,
+                      cwd=str(code), peak_rss=True)
+        out[name] = {"wall_s": round(m["wall_s"], 3), "cpu_s": round(m["cpu_s"], 3), "peak_rss_bytes": m["peak_rss_bytes"]}
         shutil.rmtree(b, ignore_errors=True)
     return out
 
