@@ -42,8 +42,11 @@ def test_the_prepared_gpu_run_writes_its_json_log_and_model(tmp_path):
                        env=env, cwd=tmp_path)
     log = (out / "device_run.log").read_text() if (out / "device_run.log").exists() else ""
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:] + log[-3000:]
-    assert sorted(p.name for p in out.iterdir()) == ["compact_model.pt", "device_run.json", "device_run.log"]
     d = json.loads((out / "device_run.json").read_text())
+    # seen once without the model under a load of 6-8 on 2 cores (not reproduced with 4 busy loops beside it): say
+    # what the compact fit did, and the log's tail, if it happens again
+    assert sorted(p.name for p in out.iterdir()) == ["compact_model.pt", "device_run.json", "device_run.log"], (
+        json.dumps(d["steps"].get("fit_compact"), indent=1) + "\n" + log[-3000:])
     steps = d["steps"]
     assert list(steps) == ["env", "sample", "render_warmup", "render", "compare", "reference_render", "fit_compact",
                            "eval_compact_heldout", "eval_compact_reference", "fit_paper", "eval_paper_heldout",
