@@ -1,4 +1,4 @@
-"""storage.local.encode_shard (#42) writes the bytes zarr writes, for every array layout the stages create.
+"""storage.local.encode_shard (#42) writes the bytes zarr writes, for every store kind the stages write through it.
 
 The direct shard encoder replaced zarr's write of whole shards (sample, blend, stress, render): the chunk files, and
 with them every store's manifest, must stay identical. Each case writes the same values once through zarr and once
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import zarr
 
-from storage import local
+from storage import local, renders_store
 from storage.svbrdf_store import array_specs
 
 N, CHUNK, SIZE = 11, 4, 48  # three shards, the last one partial; maps of one inner chunk per sample
@@ -42,9 +42,20 @@ def _group(path: Path, arrays) -> zarr.Group:
     return g
 
 
-@pytest.mark.parametrize("kind", ["variants", "blends", "stress"])
+#: arrays the direct encoder leaves to zarr: the renders' uint8 image, whose "bytes" codec zarr writes without an
+#: endian setting (one byte a value), which encode_shard does not take (#42: a render-stage speed-up left for later)
+ZARR_WRITES = {"image"}
+
+
+def _specs(kind: str):
+    if kind == "renders":  # 2 views at 32², the base maps beside them
+        return renders_store.array_specs(2, 32, SIZE)
+    return array_specs(kind, SIZE, max_params=5 if kind == "variants" else 0)
+
+
+@pytest.mark.parametrize("kind", ["variants", "blends", "stress", "renders"])
 def test_same_bytes_as_zarr(tmp_path, kind):
-    arrays = array_specs(kind, SIZE, max_params=5 if kind == "variants" else 0)
+    arrays = _specs(kind)
     rng = np.random.default_rng(0)
     values = {name: _values(spec, N, rng) for name, spec in arrays.items()}
     ref, fast = _group(tmp_path / "ref", arrays), _group(tmp_path / "fast", arrays)
@@ -54,7 +65,8 @@ def test_same_bytes_as_zarr(tmp_path, kind):
         start, stop = c * CHUNK, min(N, (c + 1) * CHUNK)
         for name, v in values.items():
             ref[name][start:stop] = v[start:stop]
-            assert local.encode_shard(fast[name], c, start, v[start:stop]) is not None, name
+            direct = local.encode_shard(fast[name], c, start, v[start:stop]) is not None
+            assert direct == (name not in ZARR_WRITES), name
         local.write_chunk(tmp_path / "fast", c, start, {name: v[start:stop] for name, v in values.items()})
     a, b = _files(tmp_path / "ref"), _files(tmp_path / "fast")
     assert a and a.keys() == b.keys()
