@@ -531,9 +531,12 @@ def encode_shard(arr: zarr.Array, c: int, start: int, values: np.ndarray) -> byt
         (sharding,) = meta.to_dict()["codecs"]
         cfg = sharding["configuration"]
         inner_codecs = cfg["codecs"]
+        # zarr writes a 1-byte dtype's "bytes" codec without an endian setting (the renders' uint8 image): the same
+        # bytes, one per value, so it is taken only for such a dtype
+        one_byte = np.dtype(arr.dtype).itemsize == 1 and inner_codecs[0] == {"name": "bytes"}
         if (sharding["name"] != "sharding_indexed" or str(cfg.get("index_location", "end")) != "end"
                 or tuple(cfg["index_codecs"]) != _INDEX_CODECS or len(inner_codecs) != 3
-                or inner_codecs[0] != _INNER_CODECS[0] or inner_codecs[2] != _INNER_CODECS[2]
+                or (inner_codecs[0] != _INNER_CODECS[0] and not one_byte) or inner_codecs[2] != _INNER_CODECS[2]
                 or inner_codecs[1]["name"] != "zstd" or inner_codecs[1]["configuration"].get("checksum", False)):
             return None
         level = int(inner_codecs[1]["configuration"]["level"])

@@ -42,9 +42,9 @@ def _group(path: Path, arrays) -> zarr.Group:
     return g
 
 
-#: arrays the direct encoder leaves to zarr: the renders' uint8 image, whose "bytes" codec zarr writes without an
-#: endian setting (one byte a value), which encode_shard does not take (#42: a render-stage speed-up left for later)
-ZARR_WRITES = {"image"}
+#: arrays the direct encoder leaves to zarr (none since the renders' uint8 image, whose "bytes" codec zarr writes
+#: without an endian setting, goes through it too)
+ZARR_WRITES: set[str] = set()
 
 
 def _specs(kind: str):
