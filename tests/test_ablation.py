@@ -295,7 +295,7 @@ def test_heldout_curve_survives_an_interruption(tmp_path):
 
 # --- the grid's design and its statistics -------------------------------------------------------------------------
 
-def test_designs_and_the_pairs_each_claim_compares(monkeypatch):
+def test_designs_and_the_pairs_each_claim_compares(monkeypatch, tmp_path):
     monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
     from ablation import CLAIMS, cells, overrides, pairs_of
 
@@ -307,6 +307,17 @@ def test_designs_and_the_pairs_each_claim_compares(monkeypatch):
     assert overrides(ofat["width-16"])["model.base_width"] == 16
     l1 = overrides(ofat["loss-l1"])
     assert l1["optim.render_weight"] == 0 and l1["optim.map_l1"] > 0 and l1["optim.normal_l2"] == 0
+    assert l1["optim.normal_late_loss"] is None  # the late normal term (the compact preset's since #39) off too
+    # and the cell, written as `dvc exp run -S` writes it into params.yaml, is the loss it names over the preset
+    from ablation import yaml_value
+    from train.config import resolve
+
+    optim: dict = {}
+    for key, v in l1.items():
+        optim.setdefault(key.split(".")[0], {})[key.split(".")[1]] = yaml.safe_load(yaml_value(v))
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump({"train": {"config_preset": "compact", **optim}}))
+    got = resolve(None, tmp_path / "params.yaml").optim
+    assert (got.render_weight, got.map_l1, got.normal_l2, got.normal_late_loss) == (0, 1, 0, None)
     assert overrides(ofat["global-off"])["model.global_track"] is False
     assert overrides(ofat["data-variants"])["data.blends"] is False
 
