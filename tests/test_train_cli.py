@@ -148,7 +148,7 @@ def test_plain_resume_refuses_other_data_or_config_and_says_what_changed(run_dir
     shutil.copytree(run_dir, run_)
     before = {f: (run_ / f).read_text() for f in ("provenance.json", "run.json", "config.yaml")}
     for extra, words in ((["--set", "data.synthetic_seed=5"], "data the synthetic demo source"),
-                         (["--set", "optim.lr=0.01"], "optim.lr 0.001 -> 0.01"),
+                         (["--set", "optim.lr=0.01"], "optim.lr 0.0005 -> 0.01"),
                          (["--set", "model.levels=2"], "model.levels 3 -> 2")):
         code, out, err = run("fit", "--out", run_, "--iterations", 4, *SMALL, *extra)
         assert code == 2 and words in err and "--no-resume" in err and err.count("\n") == 1, err

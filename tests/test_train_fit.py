@@ -172,7 +172,7 @@ def test_resume_if_unchanged_continues_only_the_same_run(src, tmp_path):
     same = fit(cfg, tmp_path / "a", source=src, resume="if-unchanged")
     assert same["resumed_from"] == 3
     # another lr: the old checkpoint (its model config is the same, so a plain resume would continue it) is stale
-    other = resolve("compact", None, {**TINY, "optim.iterations": 6, "optim.lr": 5e-4})
+    other = resolve("compact", None, {**TINY, "optim.iterations": 6, "optim.lr": 2.5e-4})
     fit(other, tmp_path / "b", source=src, stop_after=3)
     restarted = fit(cfg, tmp_path / "b", source=src, resume="if-unchanged")
     assert restarted["resumed_from"] is None
@@ -180,7 +180,7 @@ def test_resume_if_unchanged_continues_only_the_same_run(src, tmp_path):
     assert restarted["loss_final"] == fresh["loss_final"] == same["loss_final"]
     # the plain resume refuses it, naming what changed (issue #25 item 1); resume=False starts over
     fit(other, tmp_path / "d", source=src, stop_after=3)
-    with pytest.raises(ConfigError, match=r"optim.lr 0.0005 -> 0.001\).*--no-resume"):
+    with pytest.raises(ConfigError, match=r"optim.lr 0.00025 -> 0.0005\).*--no-resume"):
         fit(cfg, tmp_path / "d", source=src)
 
 
