@@ -21,8 +21,10 @@ from test_train_predict import SMALL  # a 3-level network (stride 8), 32² crops
 #: variances over H x W pixels in different orders and fuse the convolutions differently; float32 rounding (eps
 #: 1.2e-7) of sums over ~1e5 values, renormalised at every level, gives differences of order 1e-6 to 1e-5. 1e-4 is
 #: 40x below one step of the 8-bit maps predict writes (1/255), so no written map can tell the two apart, and far
-#: above what the runtimes' reordering gives.
-ATOL = 1e-4
+#: above what the runtimes' reordering gives. 2e-4 since #39: with the compact preset's new loss the tiny model's
+#: decoded normal (x, y divided by the vector's norm) amplified that to 1.1e-4 in 1 of 215,040 values; still 20x
+#: below one 8-bit step.
+ATOL = 2e-4
 
 
 @pytest.fixture(scope="module")

@@ -86,7 +86,10 @@ CURVE_RTOL = 0.10
 def test_bf16_trains_on_cpu_like_fp32(tmp_path):
     curves = {}
     for prec in ("fp32", "bf16"):
-        m = fit(resolve("compact", None, {**TINY, "compute.precision": prec}), tmp_path / prec)
+        # one loss form for the whole run: the compact preset's late normal term (#39) switches the loss's form at
+        # 30 % of the run, after which the logged loss is another quantity and cannot show a fall
+        m = fit(resolve("compact", None, {**TINY, "compute.precision": prec, "optim.normal_late_from": 0.99}),
+                tmp_path / prec)
         assert m["precision"] == prec and m["device"] == "cpu"
         curves[prec] = np.array([float(r.split(",")[1]) for r in
                                  (tmp_path / prec / "loss.csv").read_text().splitlines()[1:]])
