@@ -110,11 +110,11 @@ def sets_of(run: str, out: Path, refs: list[Path], log: Path, store: Path) -> di
     return r
 
 
-def spec(out: Path, refs: list[Path]) -> dict:
+def spec(out: Path, refs: list[Path], heldout: tuple[str, ...] = ("eval_heldout",)) -> dict:
     """Median specular-copying statistics (``train.spec_stats``) of the model's maps and of the ground truth on the
-    real reference and the held-out views (eval.json's ``specular_copy``)."""
+    real reference and the held-out views (eval.json's ``specular_copy``; ``heldout``: those evaluations' folders)."""
     got = {}
-    for name in [f"eval_ref{i}" for i in range(len(refs))] + ["eval_heldout"]:
+    for name in [f"eval_ref{i}" for i in range(len(refs))] + list(heldout):
         ev = json.loads((out / name / "eval.json").read_text())["specular_copy"]
         got[name[5:]] = {who: {stat: round(q["median"], 3) for stat, q in ev[who].items()}
                          for who in ("model", "ground_truth")}

@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).parent))
 
 from control import COLUMNS, evaluate, pooled_effect, table  # noqa: E402
-from finetune import HELDOUT_VIEWS, TRAIN_VIEWS  # noqa: E402
+from finetune import HELDOUT_VIEWS, TRAIN_VIEWS, spec  # noqa: E402
 
 
 def evaluations(run: str, out: Path, refs: list[Path], stores: dict[str, Path], log: Path) -> dict:
@@ -86,23 +86,13 @@ def main(argv=None) -> None:
            "references": [os.path.relpath(r) for r in refs], "heldout_views": HELDOUT_VIEWS,
            "train_views": TRAIN_VIEWS, "retrain_fit": {k: fit[k] for k in ("step", "loss_first", "loss_final")},
            "shipped": shipped, "retrain": ours, "effects": effects, "verdict": verdict(effects),
-           "spec_stats": {"shipped": spec_of(out / "bundled", refs), "retrain": spec_of(out / "retrain", refs)}}
+           "spec_stats": {who: spec(out / folder, refs, tuple(f"eval_heldout_{n}" for n in stores))
+                          for who, folder in (("shipped", "bundled"), ("retrain", "retrain"))}}
     dest = Path(__file__).parent / "results" / f"{a.name}.json"
     dest.write_text(json.dumps(res, indent=1) + "\n")
     print(json.dumps({"effects": {k: {c: [e[c]["control"], e[c]["arm"], e[c]["ci95"]] for c in COLUMNS}
                                   for k, e in effects.items()}, "verdict": res["verdict"]}, indent=1))
     print(f"wrote {dest}")
-
-
-def spec_of(folder: Path, refs: list[Path]) -> dict:
-    """:func:`finetune.spec` on this script's folder names (``eval_heldout_<store>``)."""
-    got = {}
-    names = [f"eval_ref{i}" for i in range(len(refs))] + ["eval_heldout_default", "eval_heldout_own"]
-    for name in names:
-        ev = json.loads((folder / name / "eval.json").read_text())["specular_copy"]
-        got[name[5:]] = {who: {stat: round(q["median"], 3) for stat, q in ev[who].items()}
-                         for who in ("model", "ground_truth")}
-    return got
 
 
 if __name__ == "__main__":
