@@ -301,3 +301,42 @@ def test_flat_variants_stay_flat_without_the_grain_only_when_asked():
     np.testing.assert_array_equal(flat_only.apply(m, own_seed).normal, with_grain.apply(m, own_seed).normal)
     assert "flat_grain" in build(SampleConfig).dropped_keys()
     assert "flat_grain" not in build(SampleConfig, flat_grain=False).dropped_keys()
+
+
+def test_coarse_relief_adds_a_coarse_band_to_its_share_of_the_variants_and_nothing_else():
+    """``coarse_relief`` R: about ``coarse_share`` of the non-flat variants get a height field whose slope power sits
+    at ``coarse_cycles`` per map, RMS slope R x exp(0.5 z); flat-mode variants stay flat; the rest of each variant
+    (and every variant at R = 0, the default, which the recorded config leaves out) is unchanged."""
+    from pipeline.config import SampleConfig
+    from pipeline.sample import Relief
+    from svcore.config import build
+
+    n = 128
+    m = maps_of(np.zeros((n, n), np.float32))
+    base = Relief.of(build(SampleConfig, flat_grain=False))
+    coarse = Relief.of(build(SampleConfig, flat_grain=False, coarse_relief=0.1))
+    k = np.hypot(*np.meshgrid(np.fft.fftfreq(n) * n, np.fft.fftfreq(n) * n, indexing="ij"))
+    got, flat_seen = [], 0
+    for s in range(120):
+        a, b = base.apply(m, s), coarse.apply(m, s)
+        np.testing.assert_array_equal(a.diffuse, b.diffuse)
+        if base.mode(s) == "flat":
+            flat_seen += 1
+            np.testing.assert_array_equal(b.normal[..., :2], 0.0)
+            continue
+        sa, sb = a.normal[..., :2] / a.normal[..., 2:3], b.normal[..., :2] / b.normal[..., 2:3]
+        d = sb - sa  # slopes add (add_height), so the difference is the coarse band's own slope field
+        if np.abs(d).max() == 0:
+            got.append(None)
+            continue
+        f = (np.abs(np.fft.fft2(d, axes=(0, 1))) ** 2).sum(-1)
+        assert f[(k >= 1.5) & (k <= 6)].sum() / f.sum() > 0.9  # its power at 2-6 cycles per map (centre 3)
+        got.append(float(np.sqrt((d ** 2).sum(-1).mean())))
+    assert flat_seen > 20
+    amps = np.array([g for g in got if g is not None])
+    # share 0.5 of ~80 non-flat variants: 3 binomial standard deviations (0.056) either way
+    assert abs(len(amps) / len(got) - 0.5) < 0.17, len(amps) / len(got)
+    # log-normal around log(0.1) with sigma 0.5: the mean of ~40 logs lies within 3 x 0.5 / sqrt(40) = 0.24
+    assert abs(np.log(amps).mean() - np.log(0.1)) < 0.24 and 0.3 < np.log(amps).std() < 0.7
+    assert set(SampleConfig.COARSE_KEYS) <= set(build(SampleConfig).dropped_keys())
+    assert not set(SampleConfig.COARSE_KEYS) & set(build(SampleConfig, coarse_relief=0.1).dropped_keys())
