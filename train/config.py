@@ -224,8 +224,9 @@ class Config(ConfigModel):
     # weight 30 a 5,540-step cosine run collapsed at step ~750 (normals saturated, loss 1.0 -> 15; README).
     # Since #39 round 5 (experiments/real_shape): from 30 % of the run on, the normal term is each sample's RMSE
     # (false relief costs as evaluation counts it) after l2 has shaped the normals, plus 0.1 x L1 on the maps (the
-    # 2019 mixed loss, which keeps the diffuse from paying for it), at lr 5e-4 (1e-3 diverged from scratch at step
-    # ~700 in the real-data control); the bundled model retrained this way is judged in results/retrain_r5.json.
+    # 2019 mixed loss; in round 5 it widened the real diffuse's interval more than it protected the diffuse, and it
+    # pulls the specular toward grey), at lr 5e-4 (1e-3 diverged from scratch at step ~700 in the real-data
+    # control); the bundled model retrained this way is judged in results/retrain_r5.json.
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
         "compact": {"model": {"base_width": 16, "max_width": 128, "levels": 7, "decoder_convs": 1, "zero_output": True},
                     "data": {"crop": 128, "synthetic_size": 144},
