@@ -74,10 +74,10 @@ def bench_steps(cfg, src, train_idx, steps: int) -> dict:
     return out
 
 
-def bench_loader(cfg, src, train_idx, batches: int, workers: int) -> float:
-    """Samples/s the loader delivers with ``workers`` processes (after start-up)."""
-    ds = PairDataset(src, train_idx, cfg.data.crop, 0, train=True)
-    loader = make_loader(ds, cfg.optim.batch_size, 0, batches + 2, workers)
+def bench_loader(crop: int, batch_size: int, src, train_idx, batches: int, workers: int) -> float:
+    """Samples/s the loader delivers with ``workers`` processes (after start-up), crops of ``crop``²."""
+    ds = PairDataset(src, train_idx, crop, 0, train=True)
+    loader = make_loader(ds, batch_size, 0, batches + 2, workers)
     it = iter(loader)
     next(it)
     next(it)  # workers started
@@ -103,15 +103,16 @@ def build_store(root: Path, res: int) -> Path:
     return root / "r.zarr"
 
 
-def loader_sizing(cfg, store: str, workers: int, batches: int) -> dict:
-    """Loader samples/s at the preset's crop from a renders store, with 1 worker and with ``workers``."""
+def loader_sizing(preset: str, batch_size: int, store: str, workers: int, batches: int) -> dict:
+    """Loader samples/s at the ``preset``'s crop from a renders store, with 1 worker and with ``workers``."""
     with tempfile.TemporaryDirectory(prefix="bench-train-") as tmp:
-        path = build_store(Path(tmp), cfg.data.synthetic_size) if store == "build" else Path(store)
-        c = resolve(cfg.preset, None, {"data.store": str(path), "optim.batch_size": cfg.optim.batch_size})
+        res = resolve(preset, None, {}).data.synthetic_size
+        path = build_store(Path(tmp), res) if store == "build" else Path(store)
+        c = resolve(preset, None, {"data.store": str(path), "optim.batch_size": batch_size})
         src = open_source(c.data)
         idx = list(range(len(src)))  # throughput only: every view
-        one = bench_loader(c, src, idx, batches, 1)
-        many = bench_loader(c, src, idx, batches, workers) if workers > 1 else one
+        one = bench_loader(c.data.crop, batch_size, src, idx, batches, 1)
+        many = bench_loader(c.data.crop, batch_size, src, idx, batches, workers) if workers > 1 else one
         return {"store": "built: 4 SVBRDFs x 5 views rendered by svgen" if store == "build" else store,
                 "store_res": int(src.res) if hasattr(src, "res") else None, "crop": c.data.crop,
                 "batch_size": c.optim.batch_size, "samples_per_s_1_worker": round(one, 1),
@@ -162,7 +163,8 @@ def main(argv=None) -> None:
            "load_average_before": round(load0, 2), "load_average_after": round(os.getloadavg()[0], 2),
            "machine": machine_info(), "command": command(), "note": a.note}
     if a.loader_store:
-        sizing = loader_sizing(cfg, a.loader_store, a.workers, 8 if cfg.data.crop >= 256 else 30)
+        sizing = loader_sizing(cfg.preset, cfg.optim.batch_size, a.loader_store, a.workers,
+                               8 if cfg.data.crop >= 256 else 30)
         sizing["workers_needed_for_this_step"] = round(consumption / sizing["per_worker_samples_per_s"], 2)
         row["loader"] = sizing
     out_path = Path(a.out)
@@ -171,7 +173,7 @@ def main(argv=None) -> None:
     res["rows"] = [r for r in res.get("rows", []) if (r["preset"], r["device"], r["precision"], r["batch_size"])
                    != key] + [row]
     if key == ("compact", "cpu", "fp32", 8):  # the README's figure: loader against consumption at 128²
-        loader = bench_loader(cfg, src, train_idx, 60, a.workers)
+        loader = bench_loader(cfg.data.crop, cfg.optim.batch_size, src, train_idx, 60, a.workers)
         res.update({"preset": cfg.preset, "model": cfg.to_dict()["model"], "batch_size": cfg.optim.batch_size,
                     "crop": cfg.data.crop, "threads": a.threads, "compile_loss": not a.no_compile,
                     **{k: row[k] for k in ("it_per_s", "s_per_it", "cpu_s_per_it", "warmup_s", "parameters")},

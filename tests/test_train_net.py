@@ -192,13 +192,13 @@ def test_fit_init_grows_a_normal_decoder_from_a_one_decoder_run(tmp_path):
 
     torch.save({"format": FORMAT, "model": net.state_dict(), "config": base.to_dict()}, tmp_path / "one.pt")
     grown = resolve("compact", None, {**small, "model.normal_decoder": True, "optim.init": str(tmp_path / "one.pt")})
-    got = init_weights(grown)
+    got = init_weights(grown.optim.init, grown.model)
     want = grow_normal_decoder(net.state_dict())
     assert got.keys() == want.keys() and all(torch.equal(got[k], want[k]) for k in want)
     other = resolve("compact", None, {**small, "model.normal_decoder": True, "model.levels": 4,
                                       "optim.init": str(tmp_path / "one.pt")})
     with pytest.raises(SvgenError, match="model.levels"):
-        init_weights(other)
+        init_weights(other.optim.init, other.model)
 
 
 def test_grown_coordinate_channels_start_as_the_network_they_grew_from(tmp_path):
@@ -218,7 +218,7 @@ def test_grown_coordinate_channels_start_as_the_network_they_grew_from(tmp_path)
     grown_cfg = resolve("compact", None, {**small, "model.coord_channels": True,
                                           "optim.init": str(tmp_path / "one.pt")})
     rng_before = torch.get_rng_state()
-    weights = init_weights(grown_cfg)
+    weights = init_weights(grown_cfg.optim.init, grown_cfg.model)
     assert torch.equal(torch.get_rng_state(), rng_before)  # building the shapes drew no random numbers
     two = SVBRDFNet(grown_cfg.model).eval()
     two.load_state_dict(weights)  # strict: every key present with its grown shape
@@ -239,7 +239,7 @@ def test_grown_coordinate_channels_start_as_the_network_they_grew_from(tmp_path)
     other = resolve("compact", None, {**small, "model.coord_channels": True, "model.levels": 4,
                                       "optim.init": str(tmp_path / "one.pt")})
     with pytest.raises(SvgenError, match="model.levels"):
-        init_weights(other)
+        init_weights(other.optim.init, other.model)
 
 
 def test_given_view_coordinates_replace_the_photos_own():

@@ -60,7 +60,7 @@ def test_loss_csv_and_time_checkpoints_are_written_as_the_run_goes(tmp_path):
     cfg = resolve("compact", None, {**TINY, "optim.checkpoint_minutes": 1e-9})
     # the images fit reads before its first step (the baselines' training means), counted, not assumed
     probe = DiesAt(10 ** 9, b)
-    fit_means(probe, cfg)
+    fit_means(probe, cfg.data, cfg.optim.seed)
     before = probe.reads
     with pytest.raises(RuntimeError, match="the run dies here"):
         fit(cfg, tmp_path / "timed", source=DiesAt(7, b, before))

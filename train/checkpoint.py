@@ -110,18 +110,18 @@ def model_from_state(state: dict[str, Any]) -> tuple[SVBRDFNet, Config]:
     return model, cfg
 
 
-def init_weights(cfg: Config) -> dict[str, torch.Tensor] | None:
-    """The weights ``optim.init`` names (fine-tuning), checked to fit this run's network; None without one.
+def init_weights(source: str | None, model: ModelConfig) -> dict[str, torch.Tensor] | None:
+    """The weights ``source`` names (``optim.init``: fine-tuning), checked to fit the network of ``model`` (this
+    run's model config); None without one.
 
     Raises:
         SvgenError: not a checkpoint, run or "bundled"; a model config other than this run's.
     """
-    source = cfg.optim.init
     if not source:
         return None
     state = load(source)
     theirs = drop_retired(state["config"])["model"]  # a run from before #41 may hold retired keys at their defaults
-    ours = cfg.to_dict()["model"]
+    ours = model.to_dict()
     weights = state["model"]
     if ours.get("normal_decoder") and not theirs.get("normal_decoder"):
         # a one-decoder model grows a normal decoder that starts as a copy of its decoder: the same maps at step 0

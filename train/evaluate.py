@@ -32,7 +32,7 @@ from storage.store import refuse_inside
 
 from . import dvc_metrics, runinfo
 from .brdf import DIFFUSE, NORMAL, ROUGHNESS, SPECULAR
-from .config import Config
+from .config import DataConfig
 from .data import PairDataset, open_source, split_for
 from .dvc_metrics import COLUMNS
 from .eval_chart import groups_of, plot_eval
@@ -56,14 +56,14 @@ SUITES: dict[str, Callable] = {}
 
 
 def register_suite(name: str, fn: Callable) -> None:
-    """Register an evaluation suite: ``fn(cfg: Config, store: str | None) -> {group: (source, indices)}``."""
+    """Register an evaluation suite: ``fn(data: DataConfig, store: str | None) -> {group: (source, indices)}``, where
+    ``data`` is the run's data config (its store, split and crop) and ``store`` the store to evaluate, if given."""
     SUITES[name] = fn
 
 
-def _heldout(cfg: Config, store: str | None):
-    data = cfg.data.model_copy(update={"store": store}) if store else cfg.data
-    src = open_source(data)
-    _, test = split_for(src, cfg.data.model_copy(update={"blends": True}))  # the held-out side: never filtered
+def _heldout(data: DataConfig, store: str | None):
+    src = open_source(data.model_copy(update={"store": store}) if store else data)
+    _, test = split_for(src, data.model_copy(update={"blends": True}))  # the held-out side: never filtered
     return {"heldout": (src, test)}
 
 
@@ -72,9 +72,9 @@ def _heldout(cfg: Config, store: str | None):
 TRAIN_SUITE_VIEWS = 400
 
 
-def _train(cfg: Config, store: str | None):
+def _train(data: DataConfig, store: str | None):
     # can the model fit what it saw? An arm that cannot fit its own training views cannot show an effect elsewhere.
-    data = cfg.data.model_copy(update={"store": store}) if store else cfg.data
+    data = data.model_copy(update={"store": store}) if store else data
     src = open_source(data)
     train, _ = split_for(src, data)
     if len(train) > TRAIN_SUITE_VIEWS:
@@ -82,10 +82,10 @@ def _train(cfg: Config, store: str | None):
     return {"train": (src, train)}
 
 
-def _stress(cfg: Config, store: str | None):
+def _stress(data: DataConfig, store: str | None):
     if not store:
         raise ConfigError("--suite stress needs --store: a renders store of `svgen stress` sets")
-    src = open_source(cfg.data.model_copy(update={"store": store}))
+    src = open_source(data.model_copy(update={"store": store}))
     cats = getattr(src, "categories_of_views", lambda: [])()
     names = [c for c in dict.fromkeys(cats) if c is not None]
     if not names:
@@ -93,11 +93,11 @@ def _stress(cfg: Config, store: str | None):
     return {c: (src, np.array([i for i, x in enumerate(cats) if x == c], np.int64)) for c in names}
 
 
-def _all(cfg: Config, store: str | None):
+def _all(data: DataConfig, store: str | None):
     # every view of an external test set, e.g. the 2018 strips imported with `svgen import --as renders`
     if not store:
         raise ConfigError("--suite all needs --store: a renders store to evaluate in full")
-    src = open_source(cfg.data.model_copy(update={"store": store}))
+    src = open_source(data.model_copy(update={"store": store}))
     return {"all": (src, np.arange(len(src), dtype=np.int64))}
 
 
@@ -208,12 +208,12 @@ def means_from_record(record: dict[str, list[float]]) -> torch.Tensor:
     return means
 
 
-def fit_means(src, cfg: Config) -> dict[str, list[float]]:
+def fit_means(src, data: DataConfig, seed: int) -> dict[str, list[float]]:
     """The baselines' training means of a run, as ``svtrain fit`` records them (:func:`train_means` over the
-    training split of ``src``, centre crops at ``data.crop``, seeded by ``optim.seed``): what ``svtrain eval`` would
-    compute from the training store, so that evaluating the run needs no training store."""
-    train_idx, _ = split_for(src, cfg.data)
-    return means_record(train_means(src, train_idx, cfg.data.crop, cfg.optim.seed))
+    training split of ``src`` by ``data``, centre crops at ``data.crop``, seeded by the run's ``optim.seed``): what
+    ``svtrain eval`` would compute from the training store, so that evaluating the run needs no training store."""
+    train_idx, _ = split_for(src, data)
+    return means_record(train_means(src, train_idx, data.crop, seed))
 
 
 def input_as_diffuse(image: torch.Tensor, means: torch.Tensor) -> torch.Tensor:
@@ -444,7 +444,7 @@ def run_eval(checkpoint_path: str | Path, out_dir: str | Path, suite: str | None
     refuse_inside(out_dir, inputs)
     store_src = open_source(cfg.data.model_copy(update={"store": store})) if store else train_src
     suite, why = choose_suite(suite, store, store_src, train_identity(prov, train_src))
-    groups = SUITES[suite](cfg, store)
+    groups = SUITES[suite](cfg.data, store)
     if recorded is not None:
         means = means_from_record(recorded)
     else:

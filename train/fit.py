@@ -54,7 +54,7 @@ def build(cfg: Config) -> tuple[SVBRDFNet, torch.optim.Optimizer, torch.Generato
     o = cfg.optim
     torch.manual_seed(stream_seed(o.seed, "train.init"))
     model = SVBRDFNet(cfg.model)
-    start = checkpoint.init_weights(cfg)  # fine-tuning: the seeded draw above still happens (same RNG streams)
+    start = checkpoint.init_weights(o.init, cfg.model)  # fine-tuning: the seeded draw above still happens (same RNG streams)
     if start is not None:
         model.load_state_dict(start)
     opt = torch.optim.Adam(model.parameters(), lr=o.lr, betas=(o.beta1, o.beta2))
@@ -375,7 +375,7 @@ def fit(cfg: Config, out_dir: str | Path, resume: bool | str = True, source=None
         on ranks other than 0 nothing is written).
     """
     cfg.check()
-    checkpoint.init_weights(cfg)  # a bad --init fails before the run directory exists
+    checkpoint.init_weights(cfg.optim.init, cfg.model)  # a bad --init fails before the run directory exists
     o = cfg.optim
     world = world_from_env()
     place = placement(cfg.compute.device, cfg.compute.precision, world.local_rank if world.size > 1 else None)
@@ -433,7 +433,7 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
     resumed_from = start if state is not None else None
     if world.main:  # the checkpoint is continued or replaced: only now do the run's records change
         # the baselines' training means travel with the model: `svtrain eval` then needs no training store
-        prov[MEANS_KEY] = fit_means(src, cfg)
+        prov[MEANS_KEY] = fit_means(src, cfg.data, cfg.optim.seed)
         runinfo.record(out, cfg.data.store)
         # a params file (`svtrain fit --params` reruns it), less the machine's settings (runinfo.recorded_config)
         (out / "config.yaml").write_text(runinfo.config_text(cfg))

@@ -146,8 +146,8 @@ def main() -> None:
         model, cfg = model_from_state(load(m))
         model.eval()
         coords = bool(getattr(model, "coord_channels", False))
-        sets = {"train_views": SUITES["train"](cfg, a.store)["train"],
-                "heldout": SUITES["heldout"](cfg, a.store)["heldout"]}
+        sets = {"train_views": SUITES["train"](cfg.data, a.store)["train"],
+                "heldout": SUITES["heldout"](cfg.data, a.store)["heldout"]}
         sets = {"train_views": (sets["train_views"][0], sets["train_views"][1][:a.train_views]),
                 "heldout": (sets["heldout"][0], sets["heldout"][1][:a.heldout_views])}
         for i, r in enumerate(a.reference):
