@@ -70,10 +70,13 @@ DATA_ARMS = {
                    "map): half the non-flat variants get relief at scales above 8 px, independent of colour, which "
                    "brings the library's share of slope energy there (1.6 %) to the real reference's (8 %; "
                    "coarse_share.py)"),
+    "coarse_coords": (ARMS["coords"][0], "round 7: pixel coordinates (round 3's coords arm) on the coarse store: coarse "
+                                         "relief shades the view as the flash's fall-off does, and the coordinates "
+                                         "say where the flash is"),
 }
 ARMS.update(DATA_ARMS)
 #: arms also paired with another arm on the same store (what the one added change does on top of it)
-BASES = {"flat_rmse_late_mixed": "flat_rmse_late"}
+BASES = {"flat_rmse_late_mixed": "flat_rmse_late", "coarse_coords": "coarse"}
 
 
 #: views of each svgen set evaluated per model (``--limit``: the first of the suite's views; the real reference is
