@@ -85,7 +85,8 @@ def test_onnxruntime_matches_torch_on_a_photo_at_two_sizes(run_dir, exported, tm
     assert_onnx_matches_torch(run_dir, exported, tmp_path)
 
 
-@pytest.mark.parametrize("option", ["model.coord_channels=true", "model.normal_decoder=true"])
+@pytest.mark.parametrize("option", ["model.coord_channels=true", "model.normal_decoder=true",
+                                    "model.highlight_cue=true"])
 def test_each_network_option_exports_and_matches_torch(option, tmp_path):
     """The optional input channels and decoder (#39) export with dynamic axes too: the coordinates follow the size
     of the photo given, not the size traced."""

@@ -202,13 +202,13 @@ def test_fit_init_grows_a_normal_decoder_from_a_one_decoder_run(tmp_path):
 
 
 def test_grown_coordinate_channels_start_as_the_network_they_grew_from(tmp_path):
-    """``grow_coord_channels`` (``svtrain fit --init`` with model.coord_channels): the grown network's maps equal the
+    """``grow_input_channels`` (``svtrain fit --init`` with model.coord_channels): the grown network's maps equal the
     original's for any coordinates (zero weights on them), every photo-fed layer grew, and training can move the
     new weights (they get gradients). ``init_weights`` grows them from a checkpoint and still refuses other changes."""
     from svcore.errors import SvgenError
     from train.checkpoint import FORMAT, init_weights
     from train.config import resolve
-    from train.net import grow_coord_channels
+    from train.net import grow_input_channels
 
     small = {"model.base_width": 4, "model.max_width": 16, "model.levels": 3, "model.zero_output": False}
     torch.manual_seed(0)
@@ -234,8 +234,8 @@ def test_grown_coordinate_channels_start_as_the_network_they_grew_from(tmp_path)
     two(x, xy).sum().backward()
     assert two.enc[0].conv.weight.grad[:, 3:].abs().sum() > 0
     with pytest.raises(ValueError, match="cannot grow"):
-        grow_coord_channels({"enc.0.conv.weight": torch.zeros(4, 3, 4, 4)},
-                            {"enc.0.conv.weight": torch.zeros(4, 6, 4, 4)})
+        grow_input_channels({"enc.0.conv.weight": torch.zeros(4, 3, 4, 4)},
+                            {"enc.0.conv.weight": torch.zeros(4, 6, 4, 4)}, 2)
     other = resolve("compact", None, {**small, "model.coord_channels": True, "model.levels": 4,
                                       "optim.init": str(tmp_path / "one.pt")})
     with pytest.raises(SvgenError, match="model.levels"):
@@ -254,3 +254,60 @@ def test_given_view_coordinates_replace_the_photos_own():
         own = net(x)
         torch.testing.assert_close(net(x, pixel_coords(x)), own, rtol=0, atol=0)
         assert (net(x, 0.5 * pixel_coords(x)) - own).abs().max() > 1e-5
+
+
+def test_the_highlight_cue_keeps_small_white_detail_only():
+    """model.highlight_cue: on a grey photo, a white spot narrower than the window shows in the cue; a red spot of
+    the same size (albedo colour: the darkest channel does not see it) and a white plateau wider than the window
+    (the flash's broad highlight) do not."""
+    from train.net import HIGHLIGHT_WINDOW, highlight_cue, log_map
+
+    img = torch.full((1, 3, 48, 48), 0.2)
+    img[:, :, 8:10, 8:10] += 0.3  # white spot, 2 px
+    img[:, 0, 8:10, 30:32] += 0.3  # red spot, 2 px
+    w = HIGHLIGHT_WINDOW + 7
+    img[:, :, 30:30 + w, 20:20 + w] += 0.3  # white plateau wider than the window
+    cue = highlight_cue(log_map(img))
+    assert cue.shape == (1, 1, 48, 48) and (cue >= 0).all()
+    spot = float(log_map(torch.tensor(0.5)) - log_map(torch.tensor(0.2)))
+    torch.testing.assert_close(cue[0, 0, 8:10, 8:10], torch.full((2, 2), spot), rtol=0, atol=1e-6)
+    rest = cue.clone()
+    rest[..., 8:10, 8:10] = 0
+    assert rest.abs().max() < 1e-6  # the red spot, the plateau and the grey background give nothing
+
+
+def test_the_highlight_cue_reaches_the_network_and_grows_from_a_model_without_it(tmp_path):
+    """The cue enters the first encoder convolution and the output layer, after the coordinates; ``init_weights``
+    grows a model without it (and one with coordinates only) with zero weights: the same maps at step 0; it
+    refuses to grow coordinates in front of a cue."""
+    from svcore.errors import SvgenError
+    from train.checkpoint import FORMAT, init_weights
+    from train.config import resolve
+
+    small = {"model.base_width": 4, "model.max_width": 16, "model.levels": 3, "model.zero_output": False}
+    x = torch.rand(2, 3, 32, 32, generator=torch.Generator().manual_seed(1))
+    for before, after, cin in (({}, {"model.highlight_cue": True}, 4),
+                               ({"model.coord_channels": True}, {"model.coord_channels": True,
+                                                                 "model.highlight_cue": True}, 6),
+                               ({}, {"model.coord_channels": True, "model.highlight_cue": True}, 6)):
+        torch.manual_seed(0)
+        base = resolve("compact", None, {**small, **before})
+        one = SVBRDFNet(base.model).eval()
+        torch.save({"format": FORMAT, "model": one.state_dict(), "config": base.to_dict()}, tmp_path / "one.pt")
+        grown = resolve("compact", None, {**small, **after, "optim.init": str(tmp_path / "one.pt")})
+        two = SVBRDFNet(grown.model).eval()
+        assert two.enc[0].conv.in_channels == cin and two.out_conv.in_channels == 4 + cin
+        two.load_state_dict(init_weights(grown.optim.init, grown.model))
+        with torch.no_grad():
+            torch.testing.assert_close(two(x), one(x), rtol=0, atol=1e-6)
+        two.train()
+        two(x).sum().backward()
+        assert two.enc[0].conv.weight.grad[:, -1].abs().sum() > 0  # training moves the cue's weights
+    torch.manual_seed(0)
+    cue_only = resolve("compact", None, {**small, "model.highlight_cue": True})
+    torch.save({"format": FORMAT, "model": SVBRDFNet(cue_only.model).state_dict(), "config": cue_only.to_dict()},
+               tmp_path / "cue.pt")
+    both = resolve("compact", None, {**small, "model.coord_channels": True, "model.highlight_cue": True,
+                                     "optim.init": str(tmp_path / "cue.pt")})
+    with pytest.raises(SvgenError, match="cannot be grown"):
+        init_weights(both.optim.init, both.model)

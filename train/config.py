@@ -48,6 +48,12 @@ class ModelConfig(ConfigModel):
     normal_decoder: bool = False
     """a second decoder, with the main decoder's structure and its own weights, fed by the shared encoder's skips
     and global vector, gives the normal's two outputs; the main decoder gives the other seven."""
+    highlight_cue: bool = False
+    """one more input channel, a normal cue free of most albedo texture: the photo minus a highlight-suppressed copy
+    of it (``net.highlight_cue``: the white top-hat of the log-mapped photo's darkest channel over 5 x 5 pixels, the
+    small bright white detail that a grey specular puts on relief and a coloured albedo does not). Concatenated
+    after the photo (and the coordinates) wherever the photo is. Fine-tuning a model without it (``optim.init``)
+    starts its weights at zero."""
 
     def widths(self) -> list[int]:
         """Channels of each encoder level, finest first."""

@@ -77,8 +77,8 @@ class GlobalConv(nn.Module):
 class SVBRDFNet(nn.Module):
     """Linear flash photo (B, 3, H, W) -> packed maps (B, 10, H, W) (normal, diffuse, specular, roughness).
 
-    Options (ModelConfig): pixel coordinates as two more input channels (coord_channels), a second decoder for
-    the normal (normal_decoder).
+    Options (ModelConfig): pixel coordinates as two more input channels (coord_channels), a highlight cue as one
+    more (highlight_cue), a second decoder for the normal (normal_decoder).
 
     H and W must be multiples of 2^levels.
     """
@@ -90,7 +90,8 @@ class SVBRDFNet(nn.Module):
         self.levels = cfg.levels
         track = cfg.global_track
         self.coord_channels = cfg.coord_channels
-        cimg = 3 + (2 if cfg.coord_channels else 0)  # the (log-mapped) input as the layers see it
+        self.highlight_cue = cfg.highlight_cue
+        cimg = input_channels(cfg)  # the (log-mapped) input as the layers see it
         self.g0 = nn.Linear(3, w[0]) if track else None
         self.enc = nn.ModuleList()
         cin, gdim = cimg, w[0]
@@ -136,8 +137,13 @@ class SVBRDFNet(nn.Module):
         """
         x0 = log_map(image)
         g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None  # the image's means, not the coords'
+        extra = []
         if self.coord_channels:
-            x0 = torch.cat([x0, pixel_coords(image) if coords is None else coords.to(x0.dtype)], 1)
+            extra.append(pixel_coords(image) if coords is None else coords.to(x0.dtype))
+        if self.highlight_cue:
+            extra.append(highlight_cue(x0))
+        if extra:
+            x0 = torch.cat([x0, *extra], 1)
         skips = []
         x = x0
         for layer in self.enc:
@@ -151,6 +157,39 @@ class SVBRDFNet(nn.Module):
         if self.normal_decoder is not None:
             o = torch.cat([self.normal_decoder(skips, g, x0), o], 1)
         return outputs_to_maps(o)
+
+
+def input_channels(cfg: ModelConfig) -> int:
+    """Channels of the network's input as its layers see it: the photo's 3, then 2 coordinates (coord_channels),
+    then 1 highlight cue (highlight_cue), in that order."""
+    return 3 + (2 if cfg.coord_channels else 0) + (1 if cfg.highlight_cue else 0)
+
+
+#: the highlight cue's window (pixels): relief detail narrower than this survives the top-hat, the flash's broad
+#: highlight and the diffuse shading (wider) do not
+HIGHLIGHT_WINDOW = 5
+
+
+def highlight_cue(x0: torch.Tensor) -> torch.Tensor:
+    """The photo minus a highlight-suppressed copy of it (model.highlight_cue), as a normal cue.
+
+    A dielectric's specular is grey: it raises the three channels alike, so the darkest channel keeps it while a
+    coloured albedo's texture mostly drops out. The morphological opening (erosion then dilation, by max pooling)
+    of that channel over :data:`HIGHLIGHT_WINDOW` pixels removes the bright detail narrower than the window, which
+    under a flash is the specular's response to relief; the photo minus it (the white top-hat) keeps only that
+    detail. Max pooling pads with -inf, so the border uses the pixels there are; the ONNX export keeps it
+    (ReduceMin, MaxPool).
+
+    Args:
+        x0: (B, 3, H, W) the log-mapped photo (:func:`log_map`).
+
+    Returns:
+        (B, 1, H, W), >= 0: zero where the darkest channel has no bright detail narrower than the window.
+    """
+    m = x0.amin(1, keepdim=True)
+    k, r = HIGHLIGHT_WINDOW, HIGHLIGHT_WINDOW // 2
+    opened = F.max_pool2d(-F.max_pool2d(-m, k, 1, r), k, 1, r)
+    return m - opened
 
 
 def pixel_coords(image: torch.Tensor) -> torch.Tensor:
@@ -178,7 +217,7 @@ def build_decoder(cfg: ModelConfig, cin: int, gdim: int, cimg: int) -> tuple[nn.
 
     Args:
         cin: channels of the coarsest encoder level. gdim: size of the global vector it receives.
-        cimg: channels of the network's input as concatenated again at full resolution (3, or 5 with coordinates).
+        cimg: channels of the network's input as concatenated again at full resolution (:func:`input_channels`).
 
     Returns:
         (decoder levels, their dropouts, channels the output layer receives (the finest level's and the input's),
@@ -278,20 +317,23 @@ def grow_normal_decoder(state: dict[str, torch.Tensor]) -> dict[str, torch.Tenso
     return out
 
 
-def grow_coord_channels(state: dict[str, torch.Tensor], target: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-    """A network's weights without ``model.coord_channels`` -> the same function with it (``svtrain fit --init``).
+def grow_input_channels(state: dict[str, torch.Tensor], target: dict[str, torch.Tensor],
+                        n: int) -> dict[str, torch.Tensor]:
+    """A network's weights -> the same function with ``n`` more input channels (``svtrain fit --init`` with
+    model.coord_channels (2) or model.highlight_cue (1) newly on).
 
     Every layer that sees the input photo (the first encoder convolution, and the full-resolution layers the photo
-    is concatenated to again) gets two more input channels, last, as :meth:`SVBRDFNet.forward` concatenates them;
+    is concatenated to again) gets ``n`` more input channels, last, as :meth:`SVBRDFNet.forward` concatenates them;
     their weights start at zero, so the grown network's maps equal the original's and a paired fine-tune starts
-    from the same model. Training then moves them (the coordinates are not zero).
+    from the same model. Training then moves them (the new channels are not zero).
 
     Args:
-        state: a ``state_dict`` of :class:`SVBRDFNet` built with ``coord_channels=False``.
-        target: a ``state_dict`` (or any tensors of the right shapes) of the network with ``coord_channels=True``.
+        state: a ``state_dict`` of :class:`SVBRDFNet`.
+        target: a ``state_dict`` (or any tensors of the right shapes) of the network with the new channels.
+        n: how many channels the target has more (they must come last: :func:`input_channels`' order).
 
     Returns:
-        ``state`` with each weight that is two input channels short padded with zeros.
+        ``state`` with each weight that is ``n`` input channels short padded with zeros.
 
     Raises:
         ValueError: a weight differs from the target's in any other way.
@@ -301,10 +343,10 @@ def grow_coord_channels(state: dict[str, torch.Tensor], target: dict[str, torch.
         want = target[k].shape if k in target else v.shape
         if v.shape == want:
             out[k] = v.clone()
-        elif v.dim() == 4 and want[1] == v.shape[1] + 2 and (want[0], *want[2:]) == (v.shape[0], *v.shape[2:]):
-            out[k] = torch.cat([v, v.new_zeros(v.shape[0], 2, *v.shape[2:])], 1)
+        elif v.dim() == 4 and want[1] == v.shape[1] + n and (want[0], *want[2:]) == (v.shape[0], *v.shape[2:]):
+            out[k] = torch.cat([v, v.new_zeros(v.shape[0], n, *v.shape[2:])], 1)
         else:
-            raise ValueError(f"{k}: {tuple(v.shape)} cannot grow into {tuple(want)} by two coordinate channels")
+            raise ValueError(f"{k}: {tuple(v.shape)} cannot grow into {tuple(want)} by {n} input channel(s)")
     return out
 
 

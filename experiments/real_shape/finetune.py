@@ -52,6 +52,10 @@ ARMS = {
     "rmse_late": (["--set", "optim.normal_late_loss=rmse", "--set", "optim.normal_late_from=0.3"],
                   "the normal term as each sample's RMSE from 30 % of the run on: false relief costs as the "
                   "evaluation counts it"),
+    "cue": (["--set", "model.highlight_cue=true"],
+            "round 8: the photo minus a highlight-suppressed copy as one more input channel (model.highlight_cue: "
+            "the white top-hat of the darkest channel over 5 px), small white detail that a grey specular puts on "
+            "relief and a coloured albedo does not; grown from the bundled model with zero weights"),
 }
 
 #: data arms: the control's train config on another store (``--arm-store NAME=PATH``), made like the control's with
