@@ -93,16 +93,6 @@ class SampleConfig(StageConfig):
     """Whether the flat variants (``flat_share``) get the extra grain (``relief``) too. False: they stay truly flat,
     as a print or paint on a smooth surface is; with True the library holds no flat material at all (its flattest
     views have the grain's relief), which real prints and polished stone have."""
-    coarse_relief: float = Field(0.0, ge=0, le=2)
-    """Coarse relief on a share of the variants: RMS slope of a band-limited height field at ``coarse_cycles``
-    cycles per map, drawn from the variant's own seed, independent of its colour, added after the grain (0: none).
-    Each variant's RMS slope is ``coarse_relief`` x exp(0.5 z), z ~ Normal(0, 1). Flat-mode variants stay flat.
-    Real materials hold about a tenth of their views' slope energy at scales above 8 px, the library 1-2 %
-    (experiments/real_shape, round 4); this puts relief there that only the shading shows."""
-    coarse_cycles: float = Field(3.0, ge=1, le=32)
-    """Centre of the coarse relief's band, cycles per map width (about one octave wide)."""
-    coarse_share: float = Field(0.5, ge=0, le=1)
-    """Share of the variants (flat-mode ones excepted) that get the coarse relief, drawn from each one's seed."""
 
     #: the keys of imported materials; a store without imported stores records the config without them, so that
     #: it is exactly what a plain `svgen sample` writes (the default DVC pipeline passes an empty --from-dir).
@@ -115,8 +105,6 @@ class SampleConfig(StageConfig):
     SPREAD_KEYS: ClassVar[tuple[str, ...]] = ("relief_spread", "relief_patches")
     #: whether flat variants get the grain, likewise left out of the recorded config at True (the stores before it).
     GRAIN_KEYS: ClassVar[tuple[str, ...]] = ("flat_grain",)
-    #: the coarse-relief keys, likewise left out of the recorded config when ``coarse_relief`` is 0.
-    COARSE_KEYS: ClassVar[tuple[str, ...]] = ("coarse_relief", "coarse_cycles", "coarse_share")
 
     @model_validator(mode="after")
     def _only_from_needs_stores(self) -> "SampleConfig":
@@ -131,8 +119,7 @@ class SampleConfig(StageConfig):
         """Keys left out of the recorded config because they are at their no-op value (same bytes as before)."""
         return ((self.RELIEF_KEYS if self.relief == 0 else ())
                 + tuple(k for k in self.MODE_KEYS + self.SPREAD_KEYS if getattr(self, k) == 0)
-                + (self.GRAIN_KEYS if self.flat_grain else ())
-                + (self.COARSE_KEYS if self.coarse_relief == 0 else ()))
+                + (self.GRAIN_KEYS if self.flat_grain else ()))
 
 
 class BlendConfig(StageConfig):

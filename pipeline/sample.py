@@ -124,8 +124,6 @@ class Relief:
         flat_share: share of variants given flat normals (colour, specular and roughness kept).
         swap_share: share of variants whose relief is replaced by an independent height field.
         flat_grain: whether the flat variants get the extra band too (False: they stay flat).
-        coarse_relief, coarse_cycles, coarse_share: a coarse band of relief (RMS slope x exp(0.5 z), band centre)
-            added to that share of the variants that are not flat-mode.
     """
 
     relief: float = 0.0
@@ -135,17 +133,11 @@ class Relief:
     relief_spread: float = 0.0
     relief_patches: float = 0.0
     flat_grain: bool = True
-    coarse_relief: float = 0.0
-    coarse_cycles: float = 3.0
-    coarse_share: float = 0.5
-
-    #: log-normal spread of the coarse relief's RMS slope across variants
-    COARSE_SPREAD: ClassVar[float] = 0.5
 
     @classmethod
     def of(cls, cfg: SampleConfig) -> "Relief":
         return cls(cfg.relief, cfg.relief_cycles, cfg.flat_share, cfg.swap_share, cfg.relief_spread,
-                   cfg.relief_patches, cfg.flat_grain, cfg.coarse_relief, cfg.coarse_cycles, cfg.coarse_share)
+                   cfg.relief_patches, cfg.flat_grain)
 
     def amplitude(self, seed: int) -> float:
         """The extra relief's RMS slope for the variant of seed ``seed``: ``relief`` x exp(relief_spread x z), z one
@@ -171,29 +163,9 @@ class Relief:
         u = np.random.default_rng(derive_seed(seed, "sample", (1 << 20) | 1)).random()
         return "flat" if u < self.flat_share else "independent" if u < self.flat_share + self.swap_share else "own"
 
-    def coarse(self, size: int, seed: int) -> np.ndarray | None:
-        """The coarse band's height (size, size) for the variant of seed ``seed``, or None where it gets none: one
-        uniform draw against ``coarse_share`` (stream 1 << 20 | 6), the band from stream | 7 and its amplitude's
-        normal draw from | 8, so that the option changes nothing else in the variant."""
-        if self.coarse_relief <= 0:
-            return None
-        if np.random.default_rng(derive_seed(seed, "sample", (1 << 20) | 6)).random() >= self.coarse_share:
-            return None
-        z = np.random.default_rng(derive_seed(seed, "sample", (1 << 20) | 8)).standard_normal()
-        return band_relief(size, derive_seed(seed, "sample", (1 << 20) | 7), self.coarse_cycles,
-                           float(self.coarse_relief * np.exp(self.COARSE_SPREAD * z)))
-
     def apply(self, m: materials.SVBRDF, seed: int, modes: bool = True) -> materials.SVBRDF:
         """``m`` with its relief changed as configured: when ``modes`` (a preset's variant), the relief mode of
-        :meth:`mode`, then the extra band, then the coarse band (:meth:`coarse`; not on flat-mode variants); an
-        imported material's variant (``modes`` False) unchanged."""
-        m = self._modes_and_grain(m, seed, modes)
-        if self.coarse_relief <= 0 or not modes or self.mode(seed) == "flat":
-            return m
-        h = self.coarse(m.size, seed)
-        return m if h is None else materials.SVBRDF(add_height(m.normal, h), m.diffuse, m.specular, m.roughness)
-
-    def _modes_and_grain(self, m: materials.SVBRDF, seed: int, modes: bool) -> materials.SVBRDF:
+        :meth:`mode`, then the extra band; an imported material's variant (``modes`` False) unchanged."""
         mode = self.mode(seed) if modes else "own"
         if mode != "own":
             flat = np.zeros_like(m.normal)

@@ -3,6 +3,7 @@
 For each variants store: the normal maps' slopes (x, y) split into the bands of ``relief_signal.py`` (coarse: a
 Gaussian blur at 8 px; middle: 2-8 px; fine: below 2 px), and the share of the slope energy in each band, pooled over
 the store's materials (as ``relief_signal.py`` pools the views) and as the median of the materials' own shares.
+The coarse stores need ``sample.coarse_relief``, removed after round 7: run these at commit 568d4b4.
 
     svgen import ../shared/materials-cc0 runs/cs/real.zarr
     svgen sample runs/cs/default.zarr --params params.yaml --per-preset 1
