@@ -20,7 +20,7 @@ import torch
 from svcore.errors import SvgenError
 
 from .config import Config, ModelConfig, drop_retired, from_dict
-from .net import SVBRDFNet, grow_input_channels, grow_normal_decoder, input_channels
+from .net import SVBRDFNet, grow_input_channels, input_channels
 
 FORMAT = "svtrain-checkpoint/1"
 #: what the weights mean to :class:`SVBRDFNet` (input mapping, layer layout, output decoding): recorded in every
@@ -123,17 +123,10 @@ def init_weights(source: str | None, model: ModelConfig) -> dict[str, torch.Tens
     theirs = drop_retired(state["config"])["model"]  # a run from before #41 may hold retired keys at their defaults
     ours = model.to_dict()
     weights = state["model"]
-    if ours.get("normal_decoder") and not theirs.get("normal_decoder"):
-        # a one-decoder model grows a normal decoder that starts as a copy of its decoder: the same maps at step 0
-        weights, theirs = grow_normal_decoder(weights), {**theirs, "normal_decoder": True}
-    # a model without coordinates or the highlight cue grows them with zero weights: the same maps at step 0. Both
-    # come after the photo, coordinates first, so only channels that go last can grow.
-    grow = [k for k in ("coord_channels", "highlight_cue") if ours.get(k) and not theirs.get(k)]
-    if grow == ["coord_channels"] and theirs.get("highlight_cue"):
-        raise SvgenError(f"--init {source}: its network has the highlight cue and no coordinates; coordinates go "
-                         f"before the cue, so they cannot be grown onto it: train from scratch (optim.init=null)")
-    if grow:
-        grown = {**theirs, **{k: True for k in grow}}
+    if ours.get("highlight_cue") and not theirs.get("highlight_cue"):
+        # a model without the highlight cue grows its channel (after the photo's) with zero weights: the same maps
+        # at step 0
+        grown = {**theirs, "highlight_cue": True}
         with torch.random.fork_rng(devices=[]):  # only the shapes are wanted: leave the run's random stream alone
             target = SVBRDFNet(ModelConfig(**grown)).state_dict()
         n = input_channels(ModelConfig(**grown)) - input_channels(ModelConfig(**theirs))

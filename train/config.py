@@ -39,21 +39,12 @@ class ModelConfig(ConfigModel):
     zero_output: bool = False
     """start the output convolution at zero weights, so that the untrained network predicts exactly its output
     biases (a flat normal and a uniform plausible material) instead of random per-pixel maps."""
-    coord_channels: bool = False
-    """two input channels with each pixel's position in its view (CoordConv): x along the columns and y along the
-    rows, from -1 to 1 over the view's pixel centres, concatenated to the log-mapped photo before the first encoder
-    convolution and wherever the photo is concatenated again at full resolution. A training crop carries the
-    positions it had in its view (turned and flipped with it), so they locate the flash as at inference, where the
-    photo is the whole view. Fine-tuning a model without them (``optim.init``) starts their weights at zero."""
-    normal_decoder: bool = False
-    """a second decoder, with the main decoder's structure and its own weights, fed by the shared encoder's skips
-    and global vector, gives the normal's two outputs; the main decoder gives the other seven."""
     highlight_cue: bool = False
     """one more input channel, a normal cue free of most albedo texture: the photo minus a highlight-suppressed copy
     of it (``net.highlight_cue``: the white top-hat of the log-mapped photo's darkest channel over 5 x 5 pixels, the
     small bright white detail that a grey specular puts on relief and a coloured albedo does not). Concatenated
-    after the photo (and the coordinates) wherever the photo is. Fine-tuning a model without it (``optim.init``)
-    starts its weights at zero."""
+    after the photo wherever the photo is. Fine-tuning a model without it (``optim.init``) starts its weights at
+    zero."""
 
     def widths(self) -> list[int]:
         """Channels of each encoder level, finest first."""
@@ -161,9 +152,9 @@ class OptimConfig(ConfigModel):
     init: str | None = None
     """start from these weights instead of the seeded initialisation (fine-tuning): a checkpoint file, a run
     directory, or "bundled" (the model shipped in the package); its model config must equal this run's (or differ
-    only by ``model.normal_decoder`` turned on: the second decoder then starts as a copy of the first, the same maps,
-    ``train.net.grow_normal_decoder``), and the
-    optimiser, schedule and step count start fresh. None: the seeded initialisation."""
+    only by ``model.highlight_cue`` turned on: the cue's weights then start at zero, the same maps,
+    ``train.net.grow_input_channels``), and the optimiser, schedule and step count start fresh. None: the seeded
+    initialisation."""
     compile_loss: bool = True
     """torch.compile the loss renderer (fuses its elementwise ops: faster on CPU after a one-off compile, cached
     on disk by inductor; benchmarks/bench_train.py measures both); off in tests."""
@@ -275,18 +266,26 @@ class Config(ConfigModel):
         return self
 
 
-#: the last commit with the arms that #41 removed (with their config keys and code paths): the one that still runs a
-#: stored config using them.
+#: the last commit that still runs the arms #41 removed first (fullres_convs, normal_head, normal_param,
+#: grazing_lights and the slope and cosine normal terms).
 RETIRED_AT = "50a7983"
+#: the last commit that still runs the #39 arms #41 removed later (model.coord_channels, model.normal_decoder).
+RETIRED_AT_39 = "614fe8c"
 
-#: config keys removed in #41 with their code paths (arms that lost), and the value each had by default, at which
-#: the removed path did nothing: a stored config holding one at that value means the same without it.
-RETIRED: dict[str, Any] = {"model.fullres_convs": 0, "model.normal_head": False, "model.normal_param": "unit",
-                           "optim.grazing_lights": 0.0}
+#: config keys removed in #41 with their code paths (arms that lost): key -> (the value it had by default, at which
+#: the removed path did nothing, so that a stored config holding it at that value means the same without it; the
+#: last commit that runs it at another value).
+RETIRED: dict[str, tuple[Any, str]] = {
+    "model.fullres_convs": (0, RETIRED_AT), "model.normal_head": (False, RETIRED_AT),
+    "model.normal_param": ("unit", RETIRED_AT), "optim.grazing_lights": (0.0, RETIRED_AT),
+    "model.coord_channels": (False, RETIRED_AT_39),  # CoordConv pixel coordinates (#39 rounds 3 and 7)
+    "model.normal_decoder": (False, RETIRED_AT_39),  # a second decoder for the normal (#39 rounds 1-3)
+}
 
-#: values of kept keys whose code paths #41 removed (the normal term's forms other than l2 and rmse).
-RETIRED_VALUES: dict[str, tuple[Any, ...]] = {"optim.normal_loss": ("slope", "cosine"),
-                                              "optim.normal_late_loss": ("slope", "cosine")}
+#: values of kept keys whose code paths #41 removed (the normal term's forms other than l2 and rmse) -> (those
+#: values, the last commit that runs them).
+RETIRED_VALUES: dict[str, tuple[tuple[Any, ...], str]] = {"optim.normal_loss": (("slope", "cosine"), RETIRED_AT),
+                                                          "optim.normal_late_loss": (("slope", "cosine"), RETIRED_AT)}
 
 
 def drop_retired(values: dict[str, Any]) -> dict[str, Any]:
@@ -304,24 +303,24 @@ def drop_retired(values: dict[str, Any]) -> dict[str, Any]:
             the commit that still runs it).
     """
     out = {k: dict(v) if isinstance(v, dict) else v for k, v in values.items()}
-    for key, old in RETIRED.items():
+    for key, (old, commit) in RETIRED.items():
         section, _, name = key.partition(".")
         if isinstance(out.get(section), dict) and name in out[section]:
             value = out[section].pop(name)
             # bool is an int in Python: False must not pass for 0, nor 0 for False
             if value != old or isinstance(value, bool) != isinstance(old, bool):
-                raise ConfigError(_retired(key, value))
-    for key, gone in RETIRED_VALUES.items():
+                raise ConfigError(_retired(key, value, commit))
+    for key, (gone, commit) in RETIRED_VALUES.items():
         section, _, name = key.partition(".")
         value = out.get(section, {}).get(name) if isinstance(out.get(section), dict) else None
         if isinstance(value, str) and value in gone:
-            raise ConfigError(_retired(key, value))
+            raise ConfigError(_retired(key, value, commit))
     return out
 
 
-def _retired(key: str, value: Any) -> str:
-    return (f"{Config.SECTION}.{key}={value!r}: this arm's code path was removed in #41; commit {RETIRED_AT} is the "
-            f"last that runs it (git checkout {RETIRED_AT})")
+def _retired(key: str, value: Any, commit: str) -> str:
+    return (f"{Config.SECTION}.{key}={value!r}: this arm's code path was removed in #41; commit {commit} is the "
+            f"last that runs it (git checkout {commit})")
 
 
 def preset(name: str) -> Config:

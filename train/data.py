@@ -100,14 +100,14 @@ def augment(image: np.ndarray, maps: np.ndarray, rng: np.random.Generator | None
     (x, y) to (-y, x); a left-right flip negates x; rng=None takes the centre crop only.
 
     Args:
-        image: (H, W, C): the photo, and any per-pixel channels that move with it. maps: (H, W, 10) packed.
+        image: (H, W, 3). maps: (H, W, 10) packed.
         rng: randomness (None: deterministic centre crop, no flips).
         crop: output side (<= H, W).
         flips: random rotations and flips (with ``rng``).
         centre: the centre crop even with ``rng`` (the offsets are still drawn, so the flips stay those of step t).
 
     Returns:
-        (crop, crop, C) image and (crop, crop, 10) maps, contiguous float32.
+        (crop, crop, 3) image and (crop, crop, 10) maps, contiguous float32.
     """
     h, w = image.shape[:2]
     if crop > h or crop > w:
@@ -149,19 +149,17 @@ class PairDataset(Dataset):
             centre crop, no flips (evaluation).
         flips: random 90° rotations and flips (train only).
         centre: training crops at the view's centre, like evaluation's (``data.crop_at``); flips still apply.
-        coords: items carry each pixel's position in its *view* (``model.coord_channels``): where the crop sat,
-            turned and flipped with the image, so that a pixel's coordinates say where it is relative to the flash.
 
-    Items are ``(image (3, c, c), maps (10, c, c))`` float32 tensors, and ``coords (2, c, c)`` with ``coords``.
+    Items are ``(image (3, c, c), maps (10, c, c))`` float32 tensors.
     """
 
     def __init__(self, src: Source, indices: Sequence[int], crop: int, seed: int = 0, train: bool = True,
-                 flips: bool = True, centre: bool = False, coords: bool = False):
+                 flips: bool = True, centre: bool = False):
         self.src, self.indices = src, np.asarray(indices, np.int64)
         if len(self.indices) == 0:
             raise StoreError("the dataset split is empty (too few samples or presets)")
         self.crop, self.seed, self.train, self.flips = int(crop), int(seed), train, flips
-        self.centre, self.coords = centre, coords
+        self.centre = centre
         self._perm_epoch, self._perm = -1, None
 
     def __len__(self) -> int:
@@ -193,30 +191,10 @@ class PairDataset(Dataset):
                 y0, x0 = ((h - self.crop) // 2,) * 2
             img, m = crop(i, y0, x0, self.crop)
             mp = pack_maps(m)
-            if self.coords:
-                img = np.concatenate([img, view_coords(h, h, y0, x0, self.crop)], -1)
         else:
             img, mp = np.asarray(self.src.image(i), np.float32), packed_maps(self.src, i)
-            if self.coords:
-                img = np.concatenate([img, view_coords(*img.shape[:2], 0, 0, max(img.shape[:2]))], -1)
-        # the coordinates travel as two more image channels: augment crops, turns and flips them with the pixels
         img, mp = augment(img, mp, rng, self.crop, self.flips, self.centre)
-        img, mp = torch.from_numpy(img).permute(2, 0, 1), torch.from_numpy(mp).permute(2, 0, 1)
-        return (img[:3], mp, img[3:]) if self.coords else (img, mp)
-
-
-def view_coords(h: int, w: int, y0: int, x0: int, size: int) -> np.ndarray:
-    """The CoordConv channels of a window of a view: each pixel centre's position in the whole ``h`` x ``w`` view.
-
-    The same values ``train.net.pixel_coords`` gives the whole view (x = (2j + 1) / w - 1 along the columns,
-    y = (2i + 1) / h - 1 along the rows), cut to rows ``y0 .. y0 + size`` and columns ``x0 .. x0 + size``.
-
-    Returns:
-        (min(size, h - y0), min(size, w - x0), 2) float32.
-    """
-    x = (2.0 * np.arange(x0, min(x0 + size, w)) + 1.0) / w - 1.0
-    y = (2.0 * np.arange(y0, min(y0 + size, h)) + 1.0) / h - 1.0
-    return np.stack(np.broadcast_arrays(x[None, :], y[:, None]), -1).astype(np.float32)
+        return torch.from_numpy(img).permute(2, 0, 1), torch.from_numpy(mp).permute(2, 0, 1)
 
 
 class StepSampler(Sampler):

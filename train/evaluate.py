@@ -245,15 +245,12 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
         :data:`SPEC_KEY`: {"model"|"ground_truth": {statistic: :func:`train.spec_stats.quartiles` over the views}}}
         (the specular-diffuse correlation and the specular chroma of the predicted and the true maps, side by side).
     """
-    coords = bool(model is not None and getattr(model, "coord_channels", False))
-    ds = PairDataset(src, indices, crop, seed, train=False, coords=coords)
+    ds = PairDataset(src, indices, crop, seed, train=False)
     device = torch.device(device)
     means = means.to(device)
     model = model.to(device) if model is not None else None
-    # (photos, their view coordinates or None) -> maps; only the model reads the coordinates (model.coord_channels)
-    methods = {"model": lambda img, xy: model(img, xy),
-               "input_as_diffuse": lambda img, xy: input_as_diffuse(img, means),
-               "dataset_mean": lambda img, xy: dataset_mean(img, means)}
+    methods = {"model": lambda img: model(img), "input_as_diffuse": lambda img: input_as_diffuse(img, means),
+               "dataset_mean": lambda img: dataset_mean(img, means)}
     acc: dict[str, dict[str, list]] = {m: {c: [] for c in COLUMNS} for m in methods}
     spec: dict[str, dict[str, list]] = {m: {s: [] for s in STATS} for m in ("model", "ground_truth")}
     if model is not None:
@@ -267,9 +264,8 @@ def evaluate(model, src, indices, crop: int, means: torch.Tensor, batch_size: in
             items = [ds[k] for k in range(lo, min(lo + batch_size, len(ds)))]
             img = torch.stack([x[0] for x in items]).to(device)
             gt = torch.stack([x[1] for x in items]).to(device)
-            xy = torch.stack([x[2] for x in items]).to(device) if coords else None
             for name, fn in methods.items():
-                pred = fn(img, xy)
+                pred = fn(img)
                 for c, v in metrics(pred, gt).items():
                     acc[name][c].extend(v.tolist())
                 if name in spec:

@@ -130,8 +130,7 @@ def loss_terms(pred: torch.Tensor, maps: torch.Tensor, loss_fn, gen: torch.Gener
 
 def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, image: torch.Tensor, maps: torch.Tensor,
                gen: torch.Generator, o: OptimConfig, step: int, *, place: Placement | None = None,
-               scaler: torch.amp.GradScaler | None = None, configs: LossConfigs | None = None,
-               coords: torch.Tensor | None = None) -> tuple[float, float]:
+               scaler: torch.amp.GradScaler | None = None, configs: LossConfigs | None = None) -> tuple[float, float]:
     """One optimisation step of ``svtrain fit`` (benchmarks call this too, so they measure the same step).
 
     Args:
@@ -140,7 +139,6 @@ def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, imag
         place: device and precision (None: float32, no autocast).
         scaler: fp16's gradient scaler (None or disabled: plain backward and step).
         configs: the loss configurations of these samples (None: drawn from ``gen`` for this batch).
-        coords: (B, 2, H, W) the pixels' positions in their views (model.coord_channels; None: each photo is a view).
 
     Returns:
         (loss, gradient norm before clipping) of this process's batch.
@@ -148,7 +146,7 @@ def train_step(model: torch.nn.Module, opt: torch.optim.Optimizer, loss_fn, imag
     for group in opt.param_groups:
         group["lr"] = lr_at(o, step)
     with (place.autocast() if place is not None else contextlib.nullcontext()):
-        pred = model(image, coords)
+        pred = model(image)
     # Everything after the network is float32 (train/device.py lists the fp32 islands): the loss upcasts anyway,
     # the map terms are taken on the same float32 prediction.
     pred = pred.float()
@@ -207,17 +205,14 @@ class Trainer:
         loader.generator = torch.Generator().manual_seed(stream_seed(o.seed, "train.loader"))
         return loader
 
-    def step(self, image: torch.Tensor, maps: torch.Tensor, step: int,
-             coords: torch.Tensor | None = None) -> tuple[float, float]:
-        """One step on this rank's host batch (``coords``: its pixels' view positions, model.coord_channels);
-        returns (loss of the global batch, gradient norm)."""
+    def step(self, image: torch.Tensor, maps: torch.Tensor, step: int) -> tuple[float, float]:
+        """One step on this rank's host batch; returns (loss of the global batch, gradient norm)."""
         # all ranks draw the global batch's configurations (same generator state everywhere) and keep their rows
         lo = self.world.rank * self.batch
         configs = sample_configs(self.global_batch, self.gen)
         configs = configs.rows(lo, lo + self.batch)
         loss, norm = train_step(self.model, self.opt, self.loss_fn, self.place.to(image), self.place.to(maps),
-                                self.gen, self.cfg.optim, step, place=self.place, scaler=self.scaler, configs=configs,
-                                coords=None if coords is None else self.place.to(coords))
+                                self.gen, self.cfg.optim, step, place=self.place, scaler=self.scaler, configs=configs)
         return mean_over_ranks(loss, self.world, self.place.device), norm
 
     def run(self, ds: PairDataset, start: int, stop: int, timeout: float = 0) -> Iterator[tuple[int, float, float]]:
@@ -230,9 +225,9 @@ class Trainer:
         if stop <= start:
             return
         step = start
-        for image, maps, *coords in self.loader(ds, start, stop, timeout):
+        for image, maps in self.loader(ds, start, stop, timeout):
             pause_hook(self.world, step)
-            loss, norm = self.step(image, maps, step, coords[0] if coords else None)
+            loss, norm = self.step(image, maps, step)
             step += 1
             yield step, loss, norm
 
@@ -439,7 +434,7 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
         (out / "config.yaml").write_text(runinfo.config_text(cfg))
         (out / "provenance.json").write_text(json.dumps(prov, indent=2) + "\n")
     ds = PairDataset(src, train_idx, cfg.data.crop, o.seed, train=True, flips=cfg.data.augment,
-                     centre=cfg.data.crop_at == "centre", coords=cfg.model.coord_channels)
+                     centre=cfg.data.crop_at == "centre")
     stop = o.iterations if stop_after is None else min(o.iterations, start + stop_after)
 
     def timings(step: int, it_per_s: float | None = None) -> dict:
@@ -459,8 +454,7 @@ def _fit(cfg: Config, out: Path, resume: bool | str, src, train_idx, test_idx, s
             checkpoint.save(ckpt_path, st)
             timing.write(out, timings(step))  # after the checkpoint: a timing.json always matches one
 
-    probe = HeldoutProbe(src, test_idx, cfg.data.crop, cfg.data.eval_views, o.batch_size,
-                         coords=cfg.model.coord_channels) \
+    probe = HeldoutProbe(src, test_idx, cfg.data.crop, cfg.data.eval_views, o.batch_size) \
         if o.eval_every and world.main else None
     # rows of a checkpoint from before timing.json carry their times: the curve keeps its columns only
     heldout_rows = [{k: r[k] for k in heldout.HEADER} for r in state.get("heldout", [])] if state is not None else []

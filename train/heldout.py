@@ -65,14 +65,14 @@ class HeldoutProbe:
         views: how many held-out views. batch_size: views per forward pass.
     """
 
-    def __init__(self, src, test_idx, crop: int, views: int, batch_size: int = 8, coords: bool = False):
+    def __init__(self, src, test_idx, crop: int, views: int, batch_size: int = 8):
         from .data import PairDataset
 
         self.indices = subset(test_idx, views)
-        ds = PairDataset(src, self.indices, crop, 0, train=False, coords=coords)
+        ds = PairDataset(src, self.indices, crop, 0, train=False)
         items = [ds[k] for k in range(len(ds))]
-        # (image, maps) or (image, maps, view coordinates) per batch
-        self.batches = [tuple(torch.stack([x[j] for x in items[lo:lo + batch_size]]) for j in range(len(items[0])))
+        self.batches = [(torch.stack([x[0] for x in items[lo:lo + batch_size]]),
+                         torch.stack([x[1] for x in items[lo:lo + batch_size]]))
                         for lo in range(0, len(items), batch_size)]
 
     @torch.no_grad()
@@ -81,9 +81,8 @@ class HeldoutProbe:
         net.eval()
         acc: dict[str, list] = {c: [] for c in COLUMNS}
         try:
-            for img, gt, *xy in self.batches:
-                pred = net(img.to(device), xy[0].to(device) if xy else None)
-                for c, v in metrics(pred.float(), gt.to(device)).items():
+            for img, gt in self.batches:
+                for c, v in metrics(net(img.to(device)).float(), gt.to(device)).items():
                     acc[c].extend(v.tolist())
         finally:
             net.train()

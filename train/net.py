@@ -77,8 +77,7 @@ class GlobalConv(nn.Module):
 class SVBRDFNet(nn.Module):
     """Linear flash photo (B, 3, H, W) -> packed maps (B, 10, H, W) (normal, diffuse, specular, roughness).
 
-    Options (ModelConfig): pixel coordinates as two more input channels (coord_channels), a highlight cue as one
-    more (highlight_cue), a second decoder for the normal (normal_decoder).
+    Option (ModelConfig): a highlight cue as one more input channel (highlight_cue).
 
     H and W must be multiples of 2^levels.
     """
@@ -89,7 +88,6 @@ class SVBRDFNet(nn.Module):
         w = cfg.widths()
         self.levels = cfg.levels
         track = cfg.global_track
-        self.coord_channels = cfg.coord_channels
         self.highlight_cue = cfg.highlight_cue
         cimg = input_channels(cfg)  # the (log-mapped) input as the layers see it
         self.g0 = nn.Linear(3, w[0]) if track else None
@@ -98,19 +96,13 @@ class SVBRDFNet(nn.Module):
         for c in w:
             self.enc.append(GlobalConv(cin, c, 4, 2, 1, gdim, track))
             cin, gdim = c, c
-        c_bottom = cin
-        self.dec, self.drop, out_in, gdim = build_decoder(cfg, c_bottom, gdim, cimg)
-        # Output layer at full resolution: skip from the input image; no norm, global bias only. With a normal
-        # decoder it gives the 7 channels after the normal's two.
-        n_out = 7 if cfg.normal_decoder else 9
-        self.out_conv = nn.Conv2d(out_in, n_out, 3, 1, 1)
-        self.out_bias = nn.Linear(gdim, n_out) if track else None
+        self.dec, self.drop, out_in, gdim = build_decoder(cfg, cin, gdim, cimg)
+        # Output layer at full resolution: skip from the input image; no norm, global bias only.
+        self.out_conv = nn.Conv2d(out_in, 9, 3, 1, 1)
+        self.out_bias = nn.Linear(gdim, 9) if track else None
         if track:
             nn.init.normal_(self.out_bias.weight, std=0.01)
             nn.init.zeros_(self.out_bias.bias)
-        # Optional second decoder for the normal's two outputs (model.normal_decoder), built last so that the
-        # default network draws its initial weights exactly as before the option existed.
-        self.normal_decoder = NormalDecoder(cfg, c_bottom, w[-1], cimg) if cfg.normal_decoder else None
         # Start from a plausible material, not sigmoid(0) = 0.5 everywhere: an F0 of 0.5 (metal-like) under the
         # rendering loss's lights gives highlights ~10x too bright, and the fastest way down the loss is to shrink
         # the lobe to a mirror (roughness -> floor) rather than to lower F0; the net then stayed there (dvc store,
@@ -118,32 +110,19 @@ class SVBRDFNet(nn.Module):
         # Started near the data means, the same 450-step probe gave 0.27 / 0.07 (experiments/output_init/results/train_probes.json).
         with torch.no_grad():
             b = self.out_conv.bias
-            k = n_out - 7  # where the diffuse starts: after the normal's two channels unless they have a decoder
             b.zero_()
-            b[k:k + 3] = _logit(INIT_DIFFUSE)
-            b[k + 3] = _logit((INIT_ROUGHNESS - ROUGHNESS_MIN) / (1.0 - ROUGHNESS_MIN))
-            b[k + 4:k + 7] = _logit(INIT_SPECULAR)
+            b[2:5] = _logit(INIT_DIFFUSE)  # after the normal's two channels
+            b[5] = _logit((INIT_ROUGHNESS - ROUGHNESS_MIN) / (1.0 - ROUGHNESS_MIN))
+            b[6:9] = _logit(INIT_SPECULAR)
             if cfg.zero_output:
                 self.out_conv.weight.zero_()
-                if self.normal_decoder is not None:
-                    self.normal_decoder.out_conv.weight.zero_()
 
-    def forward(self, image: torch.Tensor, coords: torch.Tensor | None = None) -> torch.Tensor:
-        """(B, 3, H, W) photos linear in [0, 1] -> (B, 10, H, W) packed maps.
-
-        ``coords`` (B, 2, H, W): with ``coord_channels``, each pixel's position in its view (a training crop's,
-        ``data.PairDataset(coords=True)``); None: the photo is the whole view (:func:`pixel_coords`). Ignored without
-        ``coord_channels``.
-        """
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
+        """(B, 3, H, W) photos linear in [0, 1] -> (B, 10, H, W) packed maps."""
         x0 = log_map(image)
-        g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None  # the image's means, not the coords'
-        extra = []
-        if self.coord_channels:
-            extra.append(pixel_coords(image) if coords is None else coords.to(x0.dtype))
+        g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None  # the photo's means, not the cue's
         if self.highlight_cue:
-            extra.append(highlight_cue(x0))
-        if extra:
-            x0 = torch.cat([x0, *extra], 1)
+            x0 = torch.cat([x0, highlight_cue(x0)], 1)
         skips = []
         x = x0
         for layer in self.enc:
@@ -154,15 +133,12 @@ class SVBRDFNet(nn.Module):
         o = self.out_conv(x)
         if self.out_bias is not None:
             o = o + self.out_bias(g_dec)[..., None, None]
-        if self.normal_decoder is not None:
-            o = torch.cat([self.normal_decoder(skips, g, x0), o], 1)
         return outputs_to_maps(o)
 
 
 def input_channels(cfg: ModelConfig) -> int:
-    """Channels of the network's input as its layers see it: the photo's 3, then 2 coordinates (coord_channels),
-    then 1 highlight cue (highlight_cue), in that order."""
-    return 3 + (2 if cfg.coord_channels else 0) + (1 if cfg.highlight_cue else 0)
+    """Channels of the network's input as its layers see it: the photo's 3, then 1 highlight cue (highlight_cue)."""
+    return 3 + (1 if cfg.highlight_cue else 0)
 
 
 #: the highlight cue's window (pixels): relief detail narrower than this survives the top-hat, the flash's broad
@@ -190,26 +166,6 @@ def highlight_cue(x0: torch.Tensor) -> torch.Tensor:
     k, r = HIGHLIGHT_WINDOW, HIGHLIGHT_WINDOW // 2
     opened = F.max_pool2d(-F.max_pool2d(-m, k, 1, r), k, 1, r)
     return m - opened
-
-
-def pixel_coords(image: torch.Tensor) -> torch.Tensor:
-    """The CoordConv channels (model.coord_channels): each pixel centre's position in the image given.
-
-    Built from the image's own shape: the coordinates span the photo given, which at inference is the whole view
-    (training passes its crops' view positions instead: ``train.data.view_coords``, the same formula). Built with
-    cumulative sums, not from Python ints, so that an ONNX export keeps H and W dynamic.
-
-    Args:
-        image: (B, C, H, W), any values (only its shape, dtype and device are used).
-
-    Returns:
-        (B, 2, H, W): x = (2j + 1) / W - 1 along the columns (left to right) and y = (2i + 1) / H - 1 along the rows
-        (top to bottom), both in (-1, 1) and symmetric about the image centre.
-    """
-    ones = torch.ones_like(image[:, :1])
-    j = ones.cumsum(3)  # 1 .. W along each row
-    i = ones.cumsum(2)  # 1 .. H along each column
-    return torch.cat([(2.0 * j - 1.0) / j[..., -1:] - 1.0, (2.0 * i - 1.0) / i[:, :, -1:] - 1.0], 1)
 
 
 def build_decoder(cfg: ModelConfig, cin: int, gdim: int, cimg: int) -> tuple[nn.ModuleList, nn.ModuleList, int, int]:
@@ -261,66 +217,10 @@ def decode(dec: nn.ModuleList, drop: nn.ModuleList, skips: list[torch.Tensor], g
     return x, g
 
 
-class NormalDecoder(nn.Module):
-    """A second decoder for the normal's two raw outputs (model.normal_decoder), as SVBRDF-GAN's two decoders.
-
-    The same structure as the main decoder (levels, dropout, output layer with its global bias), with its own
-    weights, fed by the shared encoder's skips and its global vector.
-
-    Args:
-        cfg: the network's config. cin: channels of the coarsest encoder level. gdim: size of the encoder's global
-            vector. cimg: channels of the network's input.
-    """
-
-    def __init__(self, cfg: ModelConfig, cin: int, gdim: int, cimg: int):
-        super().__init__()
-        self.dec, self.drop, out_in, gdim = build_decoder(cfg, cin, gdim, cimg)
-        self.out_conv = nn.Conv2d(out_in, 2, 3, 1, 1)
-        nn.init.zeros_(self.out_conv.bias)  # a flat normal on average at the start
-        self.out_bias = nn.Linear(gdim, 2) if cfg.global_track else None
-        if self.out_bias is not None:
-            nn.init.normal_(self.out_bias.weight, std=0.01)
-            nn.init.zeros_(self.out_bias.bias)
-
-    def forward(self, skips: list[torch.Tensor], g: torch.Tensor | None, x0: torch.Tensor) -> torch.Tensor:
-        """Encoder skips (finest first), global vector (B, gdim) or None, input (B, cimg, H, W) -> (B, 2, H, W)."""
-        x, g = decode(self.dec, self.drop, skips, g, x0)
-        o = self.out_conv(x)
-        return o if self.out_bias is None else o + self.out_bias(g)[..., None, None]
-
-
-def grow_normal_decoder(state: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-    """A network's weights without ``model.normal_decoder`` -> the same function with it (fine-tuning a trained
-    model into the two-decoder network, ``svtrain fit --init``).
-
-    The normal decoder starts as a copy of the main decoder (its levels and the normal's two rows of the output
-    layer and its global bias); the main output layer keeps the other seven rows.
-    The grown network's maps equal the original's (up to float rounding; dropout draws differ in training), so a
-    paired fine-tune against the original network starts from the same model and what differs is the option.
-
-    Args:
-        state: a ``state_dict`` of :class:`SVBRDFNet` built with ``normal_decoder=False``.
-
-    Returns:
-        A ``state_dict`` for the same config with ``normal_decoder=True``.
-    """
-    out: dict[str, torch.Tensor] = {}
-    for k, v in state.items():
-        if k.startswith(("dec.", "drop.")):
-            out[k] = v.clone()
-            out["normal_decoder." + k] = v.clone()
-        elif k.startswith(("out_conv.", "out_bias.")):
-            out[k] = v[2:].clone()  # weight (9, C, ...) or bias (9,): rows 0-1 are the normal's
-            out["normal_decoder." + k] = v[:2].clone()
-        else:
-            out[k] = v.clone()
-    return out
-
-
 def grow_input_channels(state: dict[str, torch.Tensor], target: dict[str, torch.Tensor],
                         n: int) -> dict[str, torch.Tensor]:
     """A network's weights -> the same function with ``n`` more input channels (``svtrain fit --init`` with
-    model.coord_channels (2) or model.highlight_cue (1) newly on).
+    model.highlight_cue newly on: ``n`` = 1).
 
     Every layer that sees the input photo (the first encoder convolution, and the full-resolution layers the photo
     is concatenated to again) gets ``n`` more input channels, last, as :meth:`SVBRDFNet.forward` concatenates them;

@@ -5,15 +5,15 @@ Every tensor of the forward pass and of the re-rendering scales with the pixels 
 convolutional; its global track is a vector per image), so the peak of a prediction at side ``s`` is the peak at
 the network's stride times ``(s / stride)²``. That peak is measured, not modelled: :func:`bytes_per_pixel` runs the
 model once at the stride (the smallest size it takes) and tracks the bytes of the live tensors op by op
-(:class:`LiveBytes`), whatever the network's options (decoders, full-resolution convolutions, widths).
+(:class:`LiveBytes`), whatever the network's options and widths.
 
 Measured (this machine, CPU, float32, batch 1): the live tensors peak at 272 bytes per pixel for the compact preset
-and 723 for the paper preset (1,467 for the paper widths with ``normal_decoder`` and one full-resolution
-convolution); the peak resident memory of a whole ``svtrain predict`` above what the loaded model holds measured
-292-408 bytes per pixel (compact, sizes 512-2048) and 324-772 (paper, 512-1536): at most 1.5x the traced peak
-(the allocator's slack, the convolutions' workspaces, the PNG/EXR encodings), hence :data:`MARGIN` 2. With it
-the compact model needs about 544 bytes per pixel (``--size 8192``: about 34 GiB; ``--size 99968``: about
-4.9 TiB) and the paper preset about 1,445.
+and 723 for the paper preset (1,467 for the paper widths with a second normal decoder and one full-resolution
+convolution, options removed in #41); the peak resident memory of a whole ``svtrain predict`` above what the loaded
+model holds measured 292-408 bytes per pixel (compact, sizes 512-2048) and 324-772 (paper, 512-1536): at most 1.5x
+the traced peak (the allocator's slack, the convolutions' workspaces, the PNG/EXR encodings), hence :data:`MARGIN` 2.
+With it the compact model needs about 544 bytes per pixel (``--size 8192``: about 34 GiB; ``--size 99968``: about 4.9
+TiB) and the paper preset about 1,445.
 """
 from __future__ import annotations
 

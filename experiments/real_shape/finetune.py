@@ -4,8 +4,10 @@ the same steps on the same store with the same seed; what differs is the arm's o
 The real-data control (``control.py``) showed that 3,000 steps from scratch do not fit the training views' normals,
 so no arm trained that way can show an effect. Starting every arm from the bundled model, which already reads
 relief on svgen's views (13 % below flat on its held-out split), puts every arm past that bar at a 2-core budget.
-Network arms start from the same function: ``svtrain fit --init`` grows a normal decoder as a copy of the decoder
-(``train.net.grow_normal_decoder``), so the arm's first model *is* the control's.
+Network arms start from the same function: ``svtrain fit --init`` grows the highlight cue's input channel with zero
+weights (``train.net.grow_input_channels``), so the arm's first model *is* the control's (the normal decoder, grown as
+a copy of the decoder, and the pixel coordinates, grown with zero weights, were removed in #41; commit 614fe8c runs
+them).
 
 Arms (``ARMS``): ``control`` (params.yaml's train config) and the network/loss changes, each a list of
 ``svtrain fit`` arguments added to the control's command.
@@ -42,13 +44,15 @@ from control import COLUMNS, PARAMS, evaluate, pooled_effect, side_by_side, tabl
 ARMS = {
     "control": ([], "the bundled model trained on with params.yaml's train config"),
     "ndec": (["--set", "model.normal_decoder=true"],
-             "a second decoder for the normal (SVBRDF-GAN's fix for flat normals), grown as a copy of the first"),
+             "(removed in #41; run at commit 614fe8c) a second decoder for the normal (SVBRDF-GAN's fix for flat "
+             "normals), grown as a copy of the first"),
     "mixed": (["--set", "optim.map_l1=0.1"],
               "the 2019 mixed loss: + 0.1 x L1 on the maps (direct supervision of a grey, flat specular where the "
               "render loss lets diffuse texture leak into it)"),
     "coords": (["--set", "model.coord_channels=true"],
-               "pixel coordinates as two input channels (CoordConv, the 2019 follow-up), each crop's pixels at their "
-               "positions in the view, so they say where the flash is; grown from the bundled model with zero weights"),
+               "(removed in #41; run at commit 614fe8c) pixel coordinates as two input channels (CoordConv, the 2019 "
+               "follow-up), each crop's pixels at their positions in the view, so they say where the flash is; grown "
+               "from the bundled model with zero weights"),
     "rmse_late": (["--set", "optim.normal_late_loss=rmse", "--set", "optim.normal_late_from=0.3"],
                   "the normal term as each sample's RMSE from 30 % of the run on: false relief costs as the "
                   "evaluation counts it"),
@@ -74,9 +78,9 @@ DATA_ARMS = {
                    "map): half the non-flat variants get relief at scales above 8 px, independent of colour, which "
                    "brings the library's share of slope energy there (1.6 %) to the real reference's (8 %; "
                    "coarse_share.py)"),
-    "coarse_coords": (ARMS["coords"][0], "round 7: pixel coordinates (round 3's coords arm) on the coarse store: coarse "
-                                         "relief shades the view as the flash's fall-off does, and the coordinates "
-                                         "say where the flash is"),
+    "coarse_coords": (ARMS["coords"][0], "(removed in #41; run at commit 614fe8c) round 7: pixel coordinates (round "
+                                         "3's coords arm) on the coarse store: coarse relief shades the view as the "
+                                         "flash's fall-off does, and the coordinates say where the flash is"),
 }
 ARMS.update(DATA_ARMS)
 #: arms also paired with another arm on the same store (what the one added change does on top of it)

@@ -69,16 +69,15 @@ def corr_amp(p: np.ndarray, g: np.ndarray) -> dict[str, float]:
     return {"corr": round(pg / max(np.sqrt(pp * gg), 1e-12), 4), "amplitude": round(np.sqrt(pp / max(gg, 1e-12)), 4)}
 
 
-def collect(model, src, idx, crop: int, coords: bool) -> tuple[np.ndarray, np.ndarray]:
+def collect(model, src, idx, crop: int) -> tuple[np.ndarray, np.ndarray]:
     """(predicted normals, true normals) of the views, each (N, 3, H, W) unit vectors."""
-    ds = PairDataset(src, idx, crop, 0, train=False, coords=coords)
+    ds = PairDataset(src, idx, crop, 0, train=False)
     preds, gts = [], []
     with torch.no_grad():
         for lo in range(0, len(ds), 8):
             items = [ds[k] for k in range(lo, min(lo + 8, len(ds)))]
             img = torch.stack([x[0] for x in items])
-            xy = torch.stack([x[2] for x in items]) if coords else None
-            preds.append(model(img, xy)[:, 0:3].numpy())
+            preds.append(model(img)[:, 0:3].numpy())
             gts.append(torch.stack([x[1] for x in items])[:, 0:3].numpy())
     return np.concatenate(preds), np.concatenate(gts)
 
@@ -145,7 +144,6 @@ def main() -> None:
             continue
         model, cfg = model_from_state(load(m))
         model.eval()
-        coords = bool(getattr(model, "coord_channels", False))
         sets = {"train_views": SUITES["train"](cfg.data, a.store)["train"],
                 "heldout": SUITES["heldout"](cfg.data, a.store)["heldout"]}
         sets = {"train_views": (sets["train_views"][0], sets["train_views"][1][:a.train_views]),
@@ -155,7 +153,7 @@ def main() -> None:
             sets[f"reference_{i}"] = (src, np.arange(len(src), dtype=np.int64))
         got, alpha = {}, None
         for name, (src, idx) in sets.items():
-            pred, gt = collect(model, src, idx, cfg.data.crop, coords)
+            pred, gt = collect(model, src, idx, cfg.data.crop)
             got[name] = analyse(pred, gt, alpha)
             if name == "train_views":
                 alpha = got[name]["best_alpha"]
