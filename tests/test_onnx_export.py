@@ -85,18 +85,6 @@ def test_onnxruntime_matches_torch_on_a_photo_at_two_sizes(run_dir, exported, tm
     assert_onnx_matches_torch(run_dir, exported, tmp_path)
 
 
-def test_the_highlight_cue_exports_and_matches_torch(tmp_path):
-    """The optional input channel (model.highlight_cue, #39) exports with dynamic axes too: the cue follows the size
-    of the photo given, not the size traced."""
-    d = tmp_path / "run"
-    code, _, err = run("fit", "--out", d, "--iterations", 2, *SMALL, "--set", "model.zero_output=false",
-                       "--set", "model.highlight_cue=true")
-    assert code == 0, err
-    code, _, err = run("export-model", d, "--format", "onnx", tmp_path / "m.onnx")
-    assert code == 0, err
-    assert_onnx_matches_torch(d, tmp_path / "m.onnx", tmp_path)
-
-
 def test_onnxruntime_gives_the_maps_svtrain_predict_writes(run_dir, exported, tmp_path):
     """The exported model's decoded maps are those `svtrain predict` writes for the same photo (its linear EXRs,
     decoded by the network and predict, not by the export's DecodedMaps): each map in its meaning and units."""

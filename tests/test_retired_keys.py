@@ -21,7 +21,8 @@ from test_train_cli import SMALL, run  # noqa: E402  (one svtrain-in-process hel
 REFUSED = [("model.fullres_convs", 2, RETIRED_AT), ("model.normal_head", True, RETIRED_AT),
            ("model.normal_param", "slope", RETIRED_AT), ("optim.grazing_lights", 0.5, RETIRED_AT),
            *((k, v, RETIRED_AT) for k, (forms, _) in RETIRED_VALUES.items() for v in forms),
-           ("model.coord_channels", True, "614fe8c"), ("model.normal_decoder", True, "614fe8c")]
+           ("model.coord_channels", True, "614fe8c"), ("model.normal_decoder", True, "614fe8c"),
+           ("model.highlight_cue", True, "614fe8c")]
 
 
 def test_every_retired_key_and_form_is_tested_with_its_own_commit():
@@ -85,7 +86,8 @@ def test_an_old_params_file_loads_and_one_using_a_retired_arm_is_refused_in_one_
     assert "Traceback" not in err
 
 
-@pytest.mark.parametrize("key", ["model.normal_head", "model.coord_channels", "model.normal_decoder"])
+@pytest.mark.parametrize("key", ["model.normal_head", "model.coord_channels", "model.normal_decoder",
+                                 "model.highlight_cue"])
 def test_setting_a_retired_key_on_the_command_line_is_an_unknown_key(tmp_path, key):
     code, out, err = run("fit", "--out", tmp_path, "--set", f"{key}=true", "--print-config")
     assert code == 2 and err.count("\n") == 1 and f"unknown config key 'train.{key}'" in err, err

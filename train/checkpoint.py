@@ -20,7 +20,7 @@ import torch
 from svcore.errors import SvgenError
 
 from .config import Config, ModelConfig, drop_retired, from_dict
-from .net import SVBRDFNet, grow_input_channels, input_channels
+from .net import SVBRDFNet
 
 FORMAT = "svtrain-checkpoint/1"
 #: what the weights mean to :class:`SVBRDFNet` (input mapping, layer layout, output decoding): recorded in every
@@ -123,14 +123,6 @@ def init_weights(source: str | None, model: ModelConfig) -> dict[str, torch.Tens
     theirs = drop_retired(state["config"])["model"]  # a run from before #41 may hold retired keys at their defaults
     ours = model.to_dict()
     weights = state["model"]
-    if ours.get("highlight_cue") and not theirs.get("highlight_cue"):
-        # a model without the highlight cue grows its channel (after the photo's) with zero weights: the same maps
-        # at step 0
-        grown = {**theirs, "highlight_cue": True}
-        with torch.random.fork_rng(devices=[]):  # only the shapes are wanted: leave the run's random stream alone
-            target = SVBRDFNet(ModelConfig(**grown)).state_dict()
-        n = input_channels(ModelConfig(**grown)) - input_channels(ModelConfig(**theirs))
-        weights, theirs = grow_input_channels(weights, target, n), grown
     if {k: theirs.get(k, v) for k, v in ours.items()} != ours:
         differ = ", ".join(f"model.{k}={theirs.get(k)!r} (this run: {v!r})" for k, v in ours.items()
                            if theirs.get(k, v) != v)

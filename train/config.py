@@ -39,12 +39,6 @@ class ModelConfig(ConfigModel):
     zero_output: bool = False
     """start the output convolution at zero weights, so that the untrained network predicts exactly its output
     biases (a flat normal and a uniform plausible material) instead of random per-pixel maps."""
-    highlight_cue: bool = False
-    """one more input channel, a normal cue free of most albedo texture: the photo minus a highlight-suppressed copy
-    of it (``net.highlight_cue``: the white top-hat of the log-mapped photo's darkest channel over 5 x 5 pixels, the
-    small bright white detail that a grey specular puts on relief and a coloured albedo does not). Concatenated
-    after the photo wherever the photo is. Fine-tuning a model without it (``optim.init``) starts its weights at
-    zero."""
 
     def widths(self) -> list[int]:
         """Channels of each encoder level, finest first."""
@@ -151,10 +145,8 @@ class OptimConfig(ConfigModel):
     training time so far (evaluation time excluded); 0 = off (heldout.csv then holds only its header)."""
     init: str | None = None
     """start from these weights instead of the seeded initialisation (fine-tuning): a checkpoint file, a run
-    directory, or "bundled" (the model shipped in the package); its model config must equal this run's (or differ
-    only by ``model.highlight_cue`` turned on: the cue's weights then start at zero, the same maps,
-    ``train.net.grow_input_channels``), and the optimiser, schedule and step count start fresh. None: the seeded
-    initialisation."""
+    directory, or "bundled" (the model shipped in the package); its model config must equal this run's, and the
+    optimiser, schedule and step count start fresh. None: the seeded initialisation."""
     compile_loss: bool = True
     """torch.compile the loss renderer (fuses its elementwise ops: faster on CPU after a one-off compile, cached
     on disk by inductor; benchmarks/bench_train.py measures both); off in tests."""
@@ -269,7 +261,8 @@ class Config(ConfigModel):
 #: the last commit that still runs the arms #41 removed first (fullres_convs, normal_head, normal_param,
 #: grazing_lights and the slope and cosine normal terms).
 RETIRED_AT = "50a7983"
-#: the last commit that still runs the #39 arms #41 removed later (model.coord_channels, model.normal_decoder).
+#: the last commit that still runs the #39 arms #41 removed later (model.coord_channels, model.normal_decoder,
+#: model.highlight_cue).
 RETIRED_AT_39 = "614fe8c"
 
 #: config keys removed in #41 with their code paths (arms that lost): key -> (the value it had by default, at which
@@ -280,6 +273,7 @@ RETIRED: dict[str, tuple[Any, str]] = {
     "model.normal_param": ("unit", RETIRED_AT), "optim.grazing_lights": (0.0, RETIRED_AT),
     "model.coord_channels": (False, RETIRED_AT_39),  # CoordConv pixel coordinates (#39 rounds 3 and 7)
     "model.normal_decoder": (False, RETIRED_AT_39),  # a second decoder for the normal (#39 rounds 1-3)
+    "model.highlight_cue": (False, RETIRED_AT_39),  # the photo minus a highlight-suppressed copy (#39 round 8)
 }
 
 #: values of kept keys whose code paths #41 removed (the normal term's forms other than l2 and rmse) -> (those

@@ -77,8 +77,6 @@ class GlobalConv(nn.Module):
 class SVBRDFNet(nn.Module):
     """Linear flash photo (B, 3, H, W) -> packed maps (B, 10, H, W) (normal, diffuse, specular, roughness).
 
-    Option (ModelConfig): a highlight cue as one more input channel (highlight_cue).
-
     H and W must be multiples of 2^levels.
     """
 
@@ -88,8 +86,7 @@ class SVBRDFNet(nn.Module):
         w = cfg.widths()
         self.levels = cfg.levels
         track = cfg.global_track
-        self.highlight_cue = cfg.highlight_cue
-        cimg = input_channels(cfg)  # the (log-mapped) input as the layers see it
+        cimg = 3  # the (log-mapped) photo, concatenated again at full resolution
         self.g0 = nn.Linear(3, w[0]) if track else None
         self.enc = nn.ModuleList()
         cin, gdim = cimg, w[0]
@@ -120,9 +117,7 @@ class SVBRDFNet(nn.Module):
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         """(B, 3, H, W) photos linear in [0, 1] -> (B, 10, H, W) packed maps."""
         x0 = log_map(image)
-        g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None  # the photo's means, not the cue's
-        if self.highlight_cue:
-            x0 = torch.cat([x0, highlight_cue(x0)], 1)
+        g = F.selu(self.g0(x0.mean((2, 3)))) if self.g0 is not None else None
         skips = []
         x = x0
         for layer in self.enc:
@@ -136,44 +131,12 @@ class SVBRDFNet(nn.Module):
         return outputs_to_maps(o)
 
 
-def input_channels(cfg: ModelConfig) -> int:
-    """Channels of the network's input as its layers see it: the photo's 3, then 1 highlight cue (highlight_cue)."""
-    return 3 + (1 if cfg.highlight_cue else 0)
-
-
-#: the highlight cue's window (pixels): relief detail narrower than this survives the top-hat, the flash's broad
-#: highlight and the diffuse shading (wider) do not
-HIGHLIGHT_WINDOW = 5
-
-
-def highlight_cue(x0: torch.Tensor) -> torch.Tensor:
-    """The photo minus a highlight-suppressed copy of it (model.highlight_cue), as a normal cue.
-
-    A dielectric's specular is grey: it raises the three channels alike, so the darkest channel keeps it while a
-    coloured albedo's texture mostly drops out. The morphological opening (erosion then dilation, by max pooling)
-    of that channel over :data:`HIGHLIGHT_WINDOW` pixels removes the bright detail narrower than the window, which
-    under a flash is the specular's response to relief; the photo minus it (the white top-hat) keeps only that
-    detail. Max pooling pads with -inf, so the border uses the pixels there are; the ONNX export keeps it
-    (ReduceMin, MaxPool).
-
-    Args:
-        x0: (B, 3, H, W) the log-mapped photo (:func:`log_map`).
-
-    Returns:
-        (B, 1, H, W), >= 0: zero where the darkest channel has no bright detail narrower than the window.
-    """
-    m = x0.amin(1, keepdim=True)
-    k, r = HIGHLIGHT_WINDOW, HIGHLIGHT_WINDOW // 2
-    opened = F.max_pool2d(-F.max_pool2d(-m, k, 1, r), k, 1, r)
-    return m - opened
-
-
 def build_decoder(cfg: ModelConfig, cin: int, gdim: int, cimg: int) -> tuple[nn.ModuleList, nn.ModuleList, int, int]:
     """The decoder's layers: per level (coarse to fine) its convolutions and dropout.
 
     Args:
         cin: channels of the coarsest encoder level. gdim: size of the global vector it receives.
-        cimg: channels of the network's input as concatenated again at full resolution (:func:`input_channels`).
+        cimg: channels of the network's input as concatenated again at full resolution (the photo's 3).
 
     Returns:
         (decoder levels, their dropouts, channels the output layer receives (the finest level's and the input's),
@@ -215,39 +178,6 @@ def decode(dec: nn.ModuleList, drop: nn.ModuleList, skips: list[torch.Tensor], g
         x = dp(x)
     x = torch.cat([F.interpolate(x, scale_factor=2.0, mode="nearest"), x0], 1)
     return x, g
-
-
-def grow_input_channels(state: dict[str, torch.Tensor], target: dict[str, torch.Tensor],
-                        n: int) -> dict[str, torch.Tensor]:
-    """A network's weights -> the same function with ``n`` more input channels (``svtrain fit --init`` with
-    model.highlight_cue newly on: ``n`` = 1).
-
-    Every layer that sees the input photo (the first encoder convolution, and the full-resolution layers the photo
-    is concatenated to again) gets ``n`` more input channels, last, as :meth:`SVBRDFNet.forward` concatenates them;
-    their weights start at zero, so the grown network's maps equal the original's and a paired fine-tune starts
-    from the same model. Training then moves them (the new channels are not zero).
-
-    Args:
-        state: a ``state_dict`` of :class:`SVBRDFNet`.
-        target: a ``state_dict`` (or any tensors of the right shapes) of the network with the new channels.
-        n: how many channels the target has more (they must come last: :func:`input_channels`' order).
-
-    Returns:
-        ``state`` with each weight that is ``n`` input channels short padded with zeros.
-
-    Raises:
-        ValueError: a weight differs from the target's in any other way.
-    """
-    out: dict[str, torch.Tensor] = {}
-    for k, v in state.items():
-        want = target[k].shape if k in target else v.shape
-        if v.shape == want:
-            out[k] = v.clone()
-        elif v.dim() == 4 and want[1] == v.shape[1] + n and (want[0], *want[2:]) == (v.shape[0], *v.shape[2:]):
-            out[k] = torch.cat([v, v.new_zeros(v.shape[0], n, *v.shape[2:])], 1)
-        else:
-            raise ValueError(f"{k}: {tuple(v.shape)} cannot grow into {tuple(want)} by {n} input channel(s)")
-    return out
 
 
 def outputs_to_maps(o: torch.Tensor) -> torch.Tensor:

@@ -4,10 +4,9 @@ the same steps on the same store with the same seed; what differs is the arm's o
 The real-data control (``control.py``) showed that 3,000 steps from scratch do not fit the training views' normals,
 so no arm trained that way can show an effect. Starting every arm from the bundled model, which already reads
 relief on svgen's views (13 % below flat on its held-out split), puts every arm past that bar at a 2-core budget.
-Network arms start from the same function: ``svtrain fit --init`` grows the highlight cue's input channel with zero
-weights (``train.net.grow_input_channels``), so the arm's first model *is* the control's (the normal decoder, grown as
-a copy of the decoder, and the pixel coordinates, grown with zero weights, were removed in #41; commit 614fe8c runs
-them).
+Network arms started from the same function: ``svtrain fit --init`` grew the normal decoder as a copy of the decoder,
+and the pixel coordinates and the highlight cue's channel with zero weights, so each arm's first model *was* the
+control's. All three lost and were removed in #41 with that growth; commit 614fe8c runs them.
 
 Arms (``ARMS``): ``control`` (params.yaml's train config) and the network/loss changes, each a list of
 ``svtrain fit`` arguments added to the control's command.
@@ -57,9 +56,10 @@ ARMS = {
                   "the normal term as each sample's RMSE from 30 % of the run on: false relief costs as the "
                   "evaluation counts it"),
     "cue": (["--set", "model.highlight_cue=true"],
-            "round 8: the photo minus a highlight-suppressed copy as one more input channel (model.highlight_cue: "
-            "the white top-hat of the darkest channel over 5 px), small white detail that a grey specular puts on "
-            "relief and a coloured albedo does not; grown from the bundled model with zero weights"),
+            "(removed in #41; run at commit 614fe8c) round 8: the photo minus a highlight-suppressed copy as one "
+            "more input channel (model.highlight_cue: the white top-hat of the darkest channel over 5 px), small "
+            "white detail that a grey specular puts on relief and a coloured albedo does not; grown from the bundled "
+            "model with zero weights"),
 }
 
 #: data arms: the control's train config on another store (``--arm-store NAME=PATH``), made like the control's with
