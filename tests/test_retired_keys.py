@@ -1,6 +1,6 @@
 """Config keys retired in #41 (arms that lost, removed with their code paths): a stored config holding one at its old
 default still loads, at any other value it is refused in one line naming the key and the commit that still runs it
-(50a7983 for the first arms removed, 614fe8c for #39's pixel coordinates and normal decoder); the bundled model,
+(50a7983 for the first arms removed, 614fe8c for #39's pixel coordinates, normal decoder and highlight cue); the bundled model,
 trained before #41, still loads and predicts."""
 from __future__ import annotations
 

@@ -74,8 +74,8 @@ DATA_ARMS = {
     "flat_rmse_late_mixed": (ARMS["rmse_late"][0] + ARMS["mixed"][0],
                              "round 4's pair with the diffuse protected: the flat store, the late rmse normal term and "
                              "round 2's mixed loss (+ 0.1 x L1 on the maps, which helped specular and diffuse a little)"),
-    "coarse": ([], "round 7 (the store needs commit 568d4b4): the control's store remade with sample.coarse_relief=0.1 (coarse_share 0.5, 3 cycles per "
-                   "map): half the non-flat variants get relief at scales above 8 px, independent of colour, which "
+    "coarse": ([], "round 7 (the store needs commit 568d4b4): the control's store remade with "
+                   "sample.coarse_relief=0.1 (coarse_share 0.5, 3 cycles per map): half the non-flat variants get relief at scales above 8 px, independent of colour, which "
                    "brings the library's share of slope energy there (1.6 %) to the real reference's (8 %; "
                    "coarse_share.py)"),
     "coarse_coords": (ARMS["coords"][0], "(removed in #41; run at commit 614fe8c) round 7: pixel coordinates (round "
