@@ -116,6 +116,10 @@ class OptimConfig(ConfigModel):
     map_l1: float = Field(0.0, ge=0)
     """weight of an L1 term on the packed maps added to the rendering loss (0 = the 2018 paper's loss alone; the
     2019 follow-up, Deschaintre et al. "Flexible SVBRDF capture", mixes both)."""
+    spec_grad: float = Field(0.0, ge=0)
+    """weight of an L1 term on the specular map's neighbour differences, predicted against true (0 = off;
+    ``train.fit.spec_grad_term``): it prices specular texture that the truth does not have, which the rendering
+    loss pays for when the other maps are wrong (#39 round 9, experiments/real_shape/REPORT.md)."""
     normal_loss: Literal["l2", "rmse"] = "l2"
     """the form of the ``normal_l2`` term: "l2" (squared error on the unit normals' x and y) or "rmse" (each sample's
     RMSE in the (n+1)/2 encoding, averaged: the metric of ``svtrain eval``, which a pooled squared error is not: it

@@ -43,6 +43,7 @@ from .distributed import (PeerLost, World, broadcast, check_world, gather, is_co
                           last_checkpoint_note, mean_over_ranks, pause_hook, process_group, world_from_env)
 from .evaluate import MEANS_KEY, fit_means
 from .heldout import HeldoutProbe, TrainClock
+from .brdf import SPECULAR
 from .loss import LossConfigs, make_loss, sample_configs
 from .net import SVBRDFNet, count_parameters
 
@@ -99,6 +100,16 @@ def normal_term(pred: torch.Tensor, maps: torch.Tensor, kind: str = "l2") -> tor
     return ((p[:, 0:2] - t[:, 0:2]) ** 2).mean()
 
 
+def spec_grad_term(pred: torch.Tensor, maps: torch.Tensor) -> torch.Tensor:
+    """The specular texture term's value (``optim.spec_grad``) on (B, 10, H, W) packed maps: mean absolute
+    difference of the specular map's neighbour differences (rows and columns), predicted against true. A grey,
+    constant true specular makes every texture in the predicted one cost; its mean level costs nothing (``map_l1``
+    weighs the level)."""
+    p, t = pred[:, SPECULAR], maps[:, SPECULAR]
+    return (((p[..., 1:, :] - p[..., :-1, :]) - (t[..., 1:, :] - t[..., :-1, :])).abs().mean()
+            + ((p[..., 1:] - p[..., :-1]) - (t[..., 1:] - t[..., :-1])).abs().mean()) / 2
+
+
 def normal_form(o: OptimConfig, step: int | None) -> tuple[float, str]:
     """(weight, form) of the normal term at 0-based ``step``: ``normal_late_*`` from ``normal_late_from`` of the run
     on, else ``normal_l2`` and ``normal_loss`` (``step`` None: the first form)."""
@@ -122,6 +133,8 @@ def loss_terms(pred: torch.Tensor, maps: torch.Tensor, loss_fn, gen: torch.Gener
         terms.append(r if o.render_weight == 1.0 else o.render_weight * r)
     if o.map_l1 > 0:
         terms.append(o.map_l1 * (pred - maps).abs().mean())
+    if o.spec_grad > 0:
+        terms.append(o.spec_grad * spec_grad_term(pred, maps))
     weight, form = normal_form(o, step)
     if weight > 0:
         terms.append(weight * normal_term(pred, maps, form))

@@ -42,6 +42,11 @@ from control import COLUMNS, PARAMS, evaluate, pooled_effect, side_by_side, tabl
 #: arm -> the `svtrain fit` arguments it adds to the control's, and what it tests.
 ARMS = {
     "control": ([], "the bundled model trained on with params.yaml's train config"),
+    "spec_grad": (["--set", "optim.spec_grad=5"],
+                  "round 9: + 5 x L1 on the specular map's neighbour differences against the truth's "
+                  "(train.fit.spec_grad_term): the rendering loss pays for a specular copied from the photo "
+                  "(spec_sensitivity.py), this term prices it; at the control's maps it is 5 x 0.0062 = 0.031, "
+                  "3x what the copy saves in rendering loss (0.008-0.011)"),
     "ndec": (["--set", "model.normal_decoder=true"],
              "(removed in #41; run at commit 614fe8c) a second decoder for the normal (SVBRDF-GAN's fix for flat "
              "normals), grown as a copy of the first"),
