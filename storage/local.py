@@ -209,8 +209,8 @@ def array_layout(spec: ArraySpec, n: int, chunk: int) -> dict:
 
     One shard per task: samples [c * chunk, (c + 1) * chunk) are one object, written whole by the one task that
     makes them (never two writers in one shard: DESIGN.md's sharded ``to_zarr`` corruption), so a store has one
-    object per array per task (benchmarks/results/codecs.json: <= 200 per 10,000 views at 64 SVBRDFs per render
-    task). Inside a shard, images and maps are chunked by one sample, so a random read decodes one sample; a
+    object per array per task (experiments/store_codecs/results/codecs.json: <= 200 per 10,000 views at 64 SVBRDFs
+    per render task). Inside a shard, images and maps are chunked by one sample, so a random read decodes one sample; a
     per-sample array under :data:`SMALL_SAMPLE_BYTES` (ids, seeds, view parameters) is one inner chunk per shard,
     because readers read those whole and a chunk per sample would cost more index and checksum than data.
 

@@ -1,6 +1,7 @@
-"""benchmarks/bench_codecs.py on tiny real stores: every codec and layout round-trips the data bit for bit, the
-bytes and objects it reports are those of the files it wrote, the layout it names is the one in the store's
-metadata, and a lossy pipeline makes it fail. (Speed is never asserted: benchmarks/results/codecs.json.)"""
+"""experiments/store_codecs/bench_codecs.py (#12's finished codec measurement) on tiny real stores: every codec
+and layout round-trips the data bit for bit, the bytes and objects it reports are those of the files it wrote, the
+layout it names is the one in the store's metadata, and a lossy pipeline makes it fail. (Speed is never asserted:
+experiments/store_codecs/results/codecs.json.)"""
 from __future__ import annotations
 
 import json
@@ -18,7 +19,8 @@ from storage.store import open_store
 from svcore.config import build
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPT = ROOT / "benchmarks" / "bench_codecs.py"
+EXPERIMENT = ROOT / "experiments" / "store_codecs"
+SCRIPT = EXPERIMENT / "bench_codecs.py"
 CODECS = "zstd5,blosc-lz4-bit,blosc-zstd-shuf,delta-zstd3"
 
 
@@ -111,7 +113,7 @@ def test_a_lossy_pipeline_fails_the_benchmark(stores, tmp_path, monkeypatch):
     from zarr.codecs import Crc32cCodec, ZstdCodec
     from zarr.codecs.numcodecs import FixedScaleOffset
 
-    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    monkeypatch.syspath_prepend(str(EXPERIMENT))
     import bench_codecs
 
     def lossy(dtype, ndim):
@@ -125,11 +127,11 @@ def test_a_lossy_pipeline_fails_the_benchmark(stores, tmp_path, monkeypatch):
 
 
 def test_chart_draws_from_the_results(run, tmp_path, monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
-    from charts import codec as charts_codecs
+    monkeypatch.syspath_prepend(str(EXPERIMENT))
+    import chart_codecs
 
     res, out = run
-    png = charts_codecs.plot(out / "codecs.json", tmp_path / "chart_codecs.png")
+    png = chart_codecs.plot(out / "codecs.json", tmp_path / "chart_codecs.png")
     assert png.stat().st_size > 10_000
 
 
@@ -137,7 +139,7 @@ def test_the_end_to_end_estimate_swaps_the_stores_own_write_for_the_chosen_one()
     """render.json is measured with the stores' codec (zstd 3 in 64-SVBRDF shards since #12): the estimate takes
     that write out and puts the chosen codec's in, never the pre-#12 zstd 5 write (which render.json no longer
     pays). Rows built by hand: the numbers are chosen so that each wrong baseline gives another estimate."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
+    sys.path.insert(0, str(EXPERIMENT))
     import bench_codecs
 
     def row(codec, layout, task, write, kb=190.0, read=0.001):

@@ -8,7 +8,8 @@
 3. scale-out: views/s against dask workers, local and a loopback cluster (bench_scaleout.py);
 4. agreement: torch flash render against Mitsuba at increasing spp (bench_agreement.py);
 5. stress: the pipeline's stress-suite evaluation beside its held-out one (runs/eval*, written by `dvc repro`);
-6. codecs: bytes per view against CPU-s per view of the store codecs and layouts (bench_codecs.py);
+6. codecs: bytes per view against CPU-s per view of the store codecs and layouts (experiments/store_codecs,
+   frozen; drawn by its chart_codecs.py);
 7. ablation: per claim of the paper, held-out error against training CPU time of both arms with their seed spread,
    and the effects table beside it (ablation.py, charts/ablation.py).
 A chart whose results file is missing is skipped with a note (run its benchmark first).
@@ -16,6 +17,7 @@ A chart whose results file is missing is skipped with a note (run its benchmark 
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import json
 import sys
 from pathlib import Path
@@ -27,6 +29,8 @@ from harness import IMG, RESULTS, ROOT, parser, pyplot, save_figure, write_csv  
 plt = pyplot()
 #: the width sweep behind the training chart: a finished experiment, its results frozen there
 TRAIN_BUDGET = ROOT / "experiments" / "train_budget" / "results"
+#: the store codec measurement behind chart 6: a finished experiment, its chart code and results frozen there
+STORE_CODECS = ROOT / "experiments" / "store_codecs"
 CSV = RESULTS  # --out sends the PNGs and CSVs into one folder
 
 
@@ -119,13 +123,19 @@ def chart_stress() -> Path | None:
                      "(dvc repro default model; bar labels: views)")
 
 
-def _external(module: str, func: str, json_name: str, png: str, results: Path | None = None) -> Path | None:
-    """Charts whose plotting lives beside their benchmark: ``func(json_path, png_path)``; ``results`` is the folder
-    of ``json_name`` (default benchmarks/results)."""
+def _external(module: str | Path, func: str, json_name: str, png: str, results: Path | None = None) -> Path | None:
+    """Charts whose plotting lives beside their benchmark: ``func(json_path, png_path)`` of ``module`` (a module
+    name, or a finished experiment's chart file); ``results`` is the folder of ``json_name`` (default
+    benchmarks/results)."""
     src = (results or RESULTS) / json_name
     if not src.exists():
         return None
-    getattr(importlib.import_module(module), func)(src, IMG / png)
+    if isinstance(module, Path):
+        spec = importlib.util.spec_from_file_location(module.stem, module)
+        spec.loader.exec_module(mod := importlib.util.module_from_spec(spec))
+    else:
+        mod = importlib.import_module(module)
+    getattr(mod, func)(src, IMG / png)
     return IMG / png
 
 
@@ -147,7 +157,8 @@ def main(argv=None) -> int:
             "agreement": _external("charts.agreement", "chart_agreement", "agreement.json",
                                        "chart_agreement.png"),
             "stress": chart_stress(),
-            "codecs": _external("charts.codec", "plot", "codecs.json", "chart_codecs.png"),
+            "codecs": _external(STORE_CODECS / "chart_codecs.py", "plot", "codecs.json", "chart_codecs.png",
+                                STORE_CODECS / "results"),
             "ablation": _external("charts.ablation", "plot", "ablation.json", "chart_ablation.png")}
     for name, p in made.items():
         print(f"{name:10s} {p if p else 'skipped: run its benchmark first'}")

@@ -3,9 +3,10 @@
 Left: encode + write CPU, right: read + decode CPU, both per 256^2 view of the renders store, against its bytes
 per view; one point per codec pipeline and layout (marker: today's unsharded chunks, a shard per today's task,
 a shard per larger task), colour by family; the issue's aim box (<= 10 ms end to end per view, render included,
-and <= 150 KB per view) drawn; the applied default, the knee and the layout before #12 circled.
+and <= 150 KB per view) drawn; the applied default, the knee and the layout before #12 circled. Drawn by
+``python3 benchmarks/charts`` (the DVC charts stage) from this finished experiment's frozen results.
 
-Usage: python3 benchmarks/charts/codec.py [codecs.json] [out.png]
+Usage: python3 experiments/store_codecs/chart_codecs.py [codecs.json] [out.png]
 """
 from __future__ import annotations
 
@@ -13,11 +14,12 @@ import json
 import sys
 from pathlib import Path
 
-if not __package__:  # run as a file (python3 benchmarks/charts/...): harness.py is one folder up
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from harness import IMG, RESULTS, pyplot, save_figure  # noqa: E402
+# harness.py stays in benchmarks/; this finished experiment imports it from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import IMG, pyplot, save_figure  # noqa: E402
 
-DEFAULT_JSON = RESULTS / "codecs.json"
+#: this experiment's frozen results (experiments/store_codecs/results/)
+DEFAULT_JSON = Path(__file__).resolve().parent / "results" / "codecs.json"
 DEFAULT_PNG = IMG / "chart_codecs.png"
 COLOURS = {"zstd": "tab:blue", "blosc": "tab:orange", "delta": "tab:green"}
 
@@ -26,7 +28,7 @@ def plot(json_path: str | Path = DEFAULT_JSON, png_path: str | Path = DEFAULT_PN
     """Draw chart 6 from the benchmark's JSON.
 
     Args:
-        json_path: benchmarks/results/codecs.json (written by bench_codecs.py).
+        json_path: experiments/store_codecs/results/codecs.json (written by bench_codecs.py).
         png_path: where to write the PNG (parent directories are created).
 
     Returns:

@@ -22,9 +22,10 @@ candidate's read-back is compared with the input (``lossless`` must hold: the ru
 
 The default is chosen by a stated rule (:func:`choose`) and written into the results with the rule.
 
-Writes benchmarks/results/codecs.json and codecs.csv. Usage:
-    python3 benchmarks/bench_codecs.py [--renders data/renders.zarr] [--variants data/variants.zarr]
-                                       [--samples 64] [--reps 3] [--note ...]
+A finished experiment (#12 applied its in-spec choice; REPORT.md): its results are frozen in
+experiments/store_codecs/results/ (codecs.json and codecs.csv). Usage:
+    python3 experiments/store_codecs/bench_codecs.py [--renders data/renders.zarr] [--variants data/variants.zarr]
+                                                     [--samples 64] [--reps 3] [--note ...]
 """
 from __future__ import annotations
 
@@ -32,6 +33,7 @@ import json
 import math
 import shutil
 import statistics
+import sys
 import tempfile
 import time
 import warnings
@@ -47,7 +49,15 @@ from zarr.codecs.numcodecs import Delta
 from storage.store import open_store
 from svcore.errors import StoreError
 
-from harness import RESULTS, ROOT, command, parser, write_csv, write_results
+# harness.py (and freshness.py) stay in benchmarks/; this finished experiment imports them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from harness import RESULTS as BENCH_RESULTS, ROOT, command, parser, write_csv, write_results  # noqa: E402
+
+#: this experiment's frozen results (experiments/store_codecs/results/)
+RESULTS = Path(__file__).resolve().parent / "results"
+#: the maintained render benchmark's results (benchmarks/results/render.json): the end-to-end estimate joins its
+#: cpu_s_per_view to this run's write CPU
+RENDER_JSON = BENCH_RESULTS / "render.json"
 
 # numcodecs' Delta is not in the zarr v3 spec (zarr says so on every use); the results record it per candidate
 warnings.filterwarnings("ignore", message="Numcodecs codecs are not in the Zarr version 3 specification")
@@ -363,8 +373,7 @@ def _codecs(spec: str) -> list[str]:
 
 def _write(args, stores: dict, render_task: int, t0: float) -> None:
     """Write the results (after each store, so an interrupted run keeps the renders rows)."""
-    render_json = RESULTS / "render.json"
-    render_cpu = json.loads(render_json.read_text())["cpu_s_per_view"] if render_json.exists() else None
+    render_cpu = json.loads(RENDER_JSON.read_text())["cpu_s_per_view"] if RENDER_JSON.exists() else None
     used = list(dict.fromkeys(r["codec"] for d in stores.values() for r in d["rows"]))
     result = {
         "benchmark": "codecs", "aims": {"cpu_s_per_view_end_to_end": AIM_CPU_S_PER_VIEW,
