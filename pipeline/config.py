@@ -94,14 +94,6 @@ class SampleConfig(StageConfig):
     as a print or paint on a smooth surface is; with True the library holds no flat material at all (its flattest
     views have the grain's relief), which real prints and polished stone have."""
 
-    grey_specular: float = Field(0.0, ge=0, le=1)
-    """Share of variants whose dielectric specular is made grey and constant (#39, round 9): every pixel whose
-    specular luminance is below 0.1 (dielectric F0 is 0.02-0.08, metals' 0.5 and above) takes the mean luminance
-    of those pixels on all three channels; metal pixels keep theirs. Real libraries' dielectrics have one grey F0
-    (materials-cc0: CV of specular 0.01 against the library's 0.07, most of it painted and rusted metal sheet), so
-    specular texture never follows albedo texture there. Presets' variants only, after the relief modes; 0 (the
-    default): the variants as their presets make them."""
-
     #: the keys of imported materials; a store without imported stores records the config without them, so that
     #: it is exactly what a plain `svgen sample` writes (the default DVC pipeline passes an empty --from-dir).
     IMPORT_KEYS: ClassVar[tuple[str, ...]] = ("from_stores", "from_dir", "per_material", "only_from")
@@ -113,8 +105,6 @@ class SampleConfig(StageConfig):
     SPREAD_KEYS: ClassVar[tuple[str, ...]] = ("relief_spread", "relief_patches")
     #: whether flat variants get the grain, likewise left out of the recorded config at True (the stores before it).
     GRAIN_KEYS: ClassVar[tuple[str, ...]] = ("flat_grain",)
-    #: the grey dielectric specular's share, likewise left out of the recorded config at 0.
-    SPECULAR_KEYS: ClassVar[tuple[str, ...]] = ("grey_specular",)
 
     @model_validator(mode="after")
     def _only_from_needs_stores(self) -> "SampleConfig":
@@ -129,8 +119,7 @@ class SampleConfig(StageConfig):
         """Keys left out of the recorded config because they are at their no-op value (same bytes as before)."""
         return ((self.RELIEF_KEYS if self.relief == 0 else ())
                 + tuple(k for k in self.MODE_KEYS + self.SPREAD_KEYS if getattr(self, k) == 0)
-                + (self.GRAIN_KEYS if self.flat_grain else ())
-                + (self.SPECULAR_KEYS if self.grey_specular == 0 else ()))
+                + (self.GRAIN_KEYS if self.flat_grain else ()))
 
 
 class BlendConfig(StageConfig):

@@ -38,7 +38,6 @@ from storage.svbrdf_store import SVBRDFStore, array_specs, encode_maps
 
 from .config import SampleConfig
 from .exec.runner import Stage
-from .grey_specular import GreySpecular
 from .importer.perturb import TABLE
 from .sample_from import imported_stores, plan_imported
 
@@ -184,8 +183,7 @@ class Relief:
 
 
 def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, sigma: float, size: int,
-                preset_index: dict[str, int], max_params: int, relief: Relief = Relief(),
-                grey: GreySpecular = GreySpecular()) -> int:
+                preset_index: dict[str, int], max_params: int, relief: Relief = Relief()) -> int:
     """Worker: make the variants of chunk ``c`` and write them (one whole chunk).
 
     ``specs`` are :class:`VariantSpec` or, with imported stores, :class:`pipeline.sample_from.ImportedSpec`:
@@ -197,8 +195,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, 
     params = np.full((n, max_params), np.nan, np.float32)
     for j, spec in enumerate(specs[start:stop]):
         m, pv = spec.make(sigma, size)
-        m = relief.apply(m, spec.seed, modes=spec.relief_modes)
-        m = grey.apply(m, spec.seed, modes=spec.relief_modes).validate()
+        m = relief.apply(m, spec.seed, modes=spec.relief_modes).validate()
         if not data:
             data = {k: np.empty((n, *getattr(m, k).shape), np.uint16) for k in materials.MAP_NAMES}
         encode_maps(m, {k: a[j] for k, a in data.items()})
@@ -234,7 +231,7 @@ def sample_stage(cfg: SampleConfig) -> Stage:
     return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config,
                  attrs, _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
                                           preset_index={n: i for i, n in enumerate(names)}, max_params=max_params,
-                                          relief=Relief.of(cfg), grey=GreySpecular.of(cfg)),
+                                          relief=Relief.of(cfg)),
                  desc="sample", unit="variant")
 
 
@@ -279,5 +276,5 @@ def sample_from_stage(cfg: SampleConfig, stores: list[str]) -> Stage:
     return Stage("variants", len(specs), cfg.chunk, array_specs("variants", cfg.size, max_params), config, attrs,
                  _chunk_task, dict(specs=specs, chunk=cfg.chunk, sigma=cfg.sigma, size=cfg.size,
                                    preset_index={n: i for i, n in enumerate(names)}, max_params=max_params,
-                                   relief=Relief.of(cfg), grey=GreySpecular.of(cfg)),
+                                   relief=Relief.of(cfg)),
                  desc="sample", unit="variant", inputs=tuple(stores))

@@ -86,7 +86,8 @@ DATA_ARMS = {
     "coarse_coords": (ARMS["coords"][0], "(removed in #41; run at commit 614fe8c) round 7: pixel coordinates (round "
                                          "3's coords arm) on the coarse store: coarse relief shades the view as the "
                                          "flash's fall-off does, and the coordinates say where the flash is"),
-    "grey": ([], "round 9: the control's store remade with sample.grey_specular=1: every preset variant's dielectric "
+    "grey": ([], "(removed after the round; the store needs commit 547080c) round 9: the control's store remade "
+                 "with sample.grey_specular=1: every preset variant's dielectric "
                  "pixels (specular luminance below 0.1) share one grey F0, the variant's mean; metal pixels keep "
                  "theirs, as real libraries' dielectrics have one grey F0"),
 }
