@@ -45,8 +45,8 @@ ARMS = {
     "spec_grad": (["--set", "optim.spec_grad=5"],
                   "round 9: + 5 x L1 on the specular map's neighbour differences against the truth's "
                   "(train.fit.spec_grad_term): the rendering loss pays for a specular copied from the photo "
-                  "(spec_sensitivity.py), this term prices it; at the control's maps it is 5 x 0.0062 = 0.031, "
-                  "3x what the copy saves in rendering loss (0.008-0.011)"),
+                  "(spec_sensitivity.py), this term prices it; on the control's training views it is 5 x 0.0046 = "
+                  "0.023, about 3x what the copy saves in rendering loss (0.008)"),
     "ndec": (["--set", "model.normal_decoder=true"],
              "(removed in #41; run at commit 614fe8c) a second decoder for the normal (SVBRDF-GAN's fix for flat "
              "normals), grown as a copy of the first"),

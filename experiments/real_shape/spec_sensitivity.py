@@ -10,7 +10,11 @@ replaced
 - ``truth``: by the ground-truth specular (the oracle);
 
 and, to see whether the copy pays only because the other maps are wrong, the ground truth's normal, diffuse and
-roughness with the model's specular (``others_true``) or with its grey mean (``others_true_grey``);
+roughness with the model's specular (``others_true``) or with its grey mean (``others_true_grey``).
+
+Beside them, what the map terms see of the same specular (means over the views): its L1 to the truth and its grey
+mean's (``specular_l1``: an L1 term on the maps weighs the level, not the texture), and ``optim.spec_grad``'s term
+(``train.fit.spec_grad_term``) on the model's maps, the scale a weight for it is set against.
 
 Per view: the loss under ``--configs`` x 9 seeded light/view configurations (the training distribution), the same for
 every variant. Effect = model - variant (positive: the variant's loss is lower, the loss would pay for it), 95 %
@@ -35,6 +39,7 @@ from train.checkpoint import load, model_from_state
 from train.config import DataConfig
 from train.data import PairDataset, open_source, split_for
 from train.evaluate import cluster_ids, paired
+from train.fit import spec_grad_term
 from train.loss import LossConfigs, rendering_loss, sample_configs
 from train.spec_stats import LUMA, spec_stats
 
@@ -81,7 +86,7 @@ def main(argv=None) -> None:
     src, idx = views_of(cfg.data.model_copy(update={"store": a.store}), a.suite, a.views)
     ds = PairDataset(src, idx, cfg.data.crop, 0, train=False)
     losses = {v: [] for v in ("model",) + VARIANTS}
-    corr = []
+    corr, l1, l1_grey, grad = [], [], [], []
     with torch.no_grad():
         for k in range(len(ds)):
             img, gt = (t[None] for t in ds[k][:2])
@@ -93,12 +98,18 @@ def main(argv=None) -> None:
             for v in VARIANTS:
                 losses[v].append(float(rendering_loss(with_specular(pred, gt, v), gt, cfg=lc)))
             corr.append(float(spec_stats(pred)["spec_diffuse_corr"][0]))
+            l1.append(float((pred[:, SPECULAR] - gt[:, SPECULAR]).abs().mean()))
+            grey = with_specular(pred, gt, "grey")
+            l1_grey.append(float((grey[:, SPECULAR] - gt[:, SPECULAR]).abs().mean()))
+            grad.append(float(spec_grad_term(pred, gt)))
     cl = cluster_ids(src, idx)
     base = np.array(losses["model"])
     res = {"run": a.run if a.run == "bundled" else Path(a.run).name, "suite": a.suite, "views": len(ds),
            "svbrdfs": int(len(set(cl.tolist()))), "configs_per_view": 9 * a.configs,
            "model_spec_diffuse_corr_median": round(float(np.median(corr)), 3),
-           "loss": {v: round(float(np.mean(x)), 5) for v, x in losses.items()}}
+           "loss": {v: round(float(np.mean(x)), 5) for v, x in losses.items()},
+           "specular_l1": {"model": round(float(np.mean(l1)), 5), "grey": round(float(np.mean(l1_grey)), 5)},
+           "spec_grad_term": round(float(np.mean(grad)), 5)}
     for v in ("grey", "truth"):
         p = paired(np.array(losses[v]), base, cl, seed=0)  # gain = model - variant
         res[f"model_minus_{v}"] = {"gain": round(p["gain"], 5), "ci95": [round(x, 5) for x in p["ci95"]]}
