@@ -59,36 +59,27 @@ class SampleConfig(StageConfig):
     """With imported stores: write only the imported materials' variants, no presets'."""
     relief: float = Field(0.06, ge=0, le=2)
     """Extra relief on every variant: RMS slope of a band-limited height field added to its own (0: none).
-    The default is fine grain, 0.06 at 64 cycles per map (4-pixel periods at 256²): real materials put most of
-    their slope power in the finest octave, the presets at mid scales, and with the grain the library's slope
-    octave shares come to the reference's noise floor (4.3x -> 1.04x, benchmarks/results/realism.json); a
-    model trained on it is better on real materials in diffuse, roughness and specular at 2,770 steps and no
-    worse in any column at 5,540 (effects_fine_grain*.json, #23). Presets' variants only, after the relief mode:
-    an imported material's variants keep its measured relief. Normals come from the summed heights' slopes."""
+    The default is fine grain, 0.06 at 64 cycles per map (4-pixel periods at 256²), where real materials put most
+    of their slope power (docs/REALISM.md). Presets' variants only, after the relief mode: an imported material's
+    variants keep its measured relief. Normals come from the summed heights' slopes."""
     relief_cycles: float = Field(64.0, ge=1, le=128)
     """Centre of the extra relief's band, cycles per map width (about one octave wide)."""
     relief_spread: float = Field(1.0, ge=0, le=2)
     """Spread of the extra relief's RMS slope across variants: each variant's is ``relief`` x exp(relief_spread x z),
-    z ~ Normal(0, 1) from its own seed (0: every variant gets exactly ``relief``, the library before #23's grain
-    options). At 1 (the default) the library's normal tilt and slope octaves come closer to materials-cc0 (1.27x ->
-    0.99x and 1.04x -> 0.81x their noise floors); a CV of slope magnitude ignores amplitude, hence
-    ``relief_patches`` (realism.json statistics_grain_*; the sim-to-real pair: effects_grain_options.json)."""
+    z ~ Normal(0, 1) from its own seed (0: every variant gets exactly ``relief``). The spread of grain amplitudes
+    between materials; ``relief_patches`` varies it within one (docs/REALISM.md)."""
     relief_patches: float = Field(1.2, ge=0, le=2)
     """Patchiness of the extra relief within a material: its height is multiplied by exp(p x g), g a smooth unit
     Gaussian field (about 4 features per map) and p ~ Uniform(0, relief_patches) per variant, then rescaled to
-    the variant's RMS slope (0: uniform grain). A uniform grain on a flat variant has the CV of slope magnitude
-    of a Gaussian field (0.52) whatever its amplitude, where real materials spread 0.2-1.4; at 1.2 (the default)
-    the CV's distance to materials-cc0 falls from 1.42x to 0.49x its noise floor. With ``relief_spread`` 1 a
-    model trained 2,770 steps is better on real roughness (+0.029 [0.012, 0.044]) and no worse in any real
-    column; on svgen's held-out views its normals lose 0.0011 (effects_grain_options.json, #23)."""
+    the variant's RMS slope (0: uniform grain). A uniform grain has one CV of slope magnitude (a Gaussian field's,
+    0.52) whatever its amplitude; real materials spread 0.2-1.4 (docs/REALISM.md)."""
     flat_share: float = Field(0.35, ge=0, le=1)
     """Share of variants made with flat normals, colour, specular and roughness kept: the printed, polished or
-    painted-over counterpart of a textured material, so that colour texture alone never means relief (#22;
-    experiments/shape/results/shape_finetune.json: with swap_share, real normals move toward the flat map's error).
-    Presets' variants only: an imported material's variants keep its measured relief."""
+    painted-over counterpart of a textured material, so that colour texture alone never means relief. Presets'
+    variants only: an imported material's variants keep its measured relief."""
     swap_share: float = Field(0.35, ge=0, le=1)
     """Share of variants whose relief is replaced by an independent random height field
-    (materials.heights.independent_relief), so that relief and colour texture vary independently (#22)."""
+    (materials.heights.independent_relief), so that relief and colour texture vary independently."""
     flat_grain: bool = True
     """Whether the flat variants (``flat_share``) get the extra grain (``relief``) too. False: they stay truly flat,
     as a print or paint on a smooth surface is; with True the library holds no flat material at all (its flattest
@@ -193,11 +184,11 @@ class RenderConfig(StageConfig):
     """Render resolution (square, 16..2048); the paper renders 288 and crops 256 at training time."""
     zoom: tuple[float, float] = Field((0.7, 1.4), **_LIST)
     """Range of the per-view texture zoom (base-map tiles across the picture width, log-uniform; min == max: one
-    zoom for every view). At the default it is left out of the recorded config (the same bytes as before the key);
-    the #22 shape grid measures its effect on learning normals (experiments/shape/bench_shape.py, shape.json)."""
+    zoom for every view). At the default it is left out of the recorded config (the same bytes as before the
+    key)."""
     spp: int = Field(1, ge=1)
-    """Samples per pixel (1 pixel-centre sample against a converged sphere-light reference:
-    benchmarks/bench_render_quality.py, results in benchmarks/results/render_quality.json)."""
+    """Samples per pixel (the default 1 shades the pixel centre; its error against a converged reference:
+    docs/PERFORMANCE.md)."""
     light: LightModel = "point"
     """Flash model: point, or sphere (radius 0.02, the paper's light)."""
     sampler: Sampler = "centre"
@@ -213,6 +204,14 @@ class RenderConfig(StageConfig):
     default (the same bytes as before the key), so a cuda_ad_rgb store has a config hash of its own: CUDA's
     arithmetic need not match LLVM's bit for bit (docs/GPU.md)."""
 
+    views_per_launch: int = Field(1, ge=1)
+    """Views of one SVBRDF rendered by one Mitsuba call (point flash only; at most ``views`` are used). 1 renders
+    each view on its own. More shares the call's fixed cost (tracing the Python integrator and BSDF, the launch):
+    for GPUs, where that cost dominates; on a CPU it is faster only at small resolutions (docs/GPU.md). The images
+    equal one view per call up to the float rounding of the pixel positions on the wider film (one 8-bit code on a
+    few pixels per million); left out of the recorded config at 1 (the same bytes as before the key), so a store
+    records a larger value and is resumed only under it."""
+
     #: the default zoom range (pipeline.render.views.ZOOM_MIN, ZOOM_MAX; a test holds them equal)
     DEFAULT_ZOOM: ClassVar[tuple[float, float]] = (0.7, 1.4)
 
@@ -220,6 +219,9 @@ class RenderConfig(StageConfig):
     def _square_spp(self) -> "RenderConfig":
         if self.sampler != "independent" and math.isqrt(self.spp) ** 2 != self.spp:
             raise ValueError(f"sampler {self.sampler!r} needs a square spp (1, 4, 9 ...), got {self.spp}")
+        if self.views_per_launch > 1 and self.light != "point":
+            raise ValueError(f"views_per_launch {self.views_per_launch} needs the point flash: the sphere flash is "
+                             f"rendered by Mitsuba's 'direct' integrator, one flash per scene")
         if len(self.zoom) != 2 or not 0.125 <= self.zoom[0] <= self.zoom[1] <= 8:
             raise ValueError(f"zoom must be a range [min, max] with 0.125 <= min <= max <= 8 (tiles across the "
                              f"picture), got {list(self.zoom)}")
@@ -228,7 +230,8 @@ class RenderConfig(StageConfig):
     def dropped_keys(self) -> tuple[str, ...]:
         """Keys left out of the recorded config because they are at their default (same bytes as before)."""
         return (("zoom",) if tuple(self.zoom) == self.DEFAULT_ZOOM else ()) + \
-            (("variant",) if self.variant == "llvm_ad_rgb" else ())
+            (("variant",) if self.variant == "llvm_ad_rgb" else ()) + \
+            (("views_per_launch",) if self.views_per_launch == 1 else ())
 
 
 #: the importer's layouts (pipeline.importer.layouts.LAYOUTS, a test holds them equal) and "auto"

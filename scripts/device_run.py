@@ -10,7 +10,8 @@ where it can):
 1. ``env``: Python, torch, the GPU, whether a libLLVM >= 16 is there (drjit's CPU backend).
 2. ``sample``: a variants store, ``--per-preset`` of each of svgen's presets (3: 546 SVBRDFs) at ``--size``.
 3. ``render``: a warm-up render of one preset's SVBRDFs (Mitsuba compiles and caches its kernels), then the timed
-   render of the whole store in ``--variant``; views per second over the command's wall clock.
+   render of the whole store in ``--variant``, ``--views-per-launch`` views per Mitsuba call (10: all of an
+   SVBRDF's); views per second over the command's wall clock.
 4. ``compare``: the first ``--compare`` SVBRDFs' views rendered again in llvm_ad_rgb from the store's own maps
    and config, against the stored ones; where there is no libLLVM, against the llvm views carried in
    ``--llvm-views`` (scripts/device_wheels.py made them) of the SVBRDFs whose maps match.
@@ -52,12 +53,12 @@ from svcore.mi_env import use_variant
 use_variant("llvm_ad_rgb")
 from materials.maps import MAP_NAMES
 from pipeline.config import RenderConfig
-from pipeline.render.stage import _scene, render_svbrdf
+from pipeline.render.stage import render_svbrdf, scene_for
 from storage.svbrdf_store import decode_maps
 g = zarr.open_group(sys.argv[1], mode="r")
 c = {k: v for k, v in g.attrs["config"].items() if k in RenderConfig.model_fields}
 cfg = RenderConfig(**{**c, "variant": "llvm_ad_rgb"})
-scene = _scene(cfg.res, cfg.spp, cfg.light, cfg.sampler)
+scene = scene_for(cfg)
 rows = []
 for s in range(min(int(sys.argv[2]), g["image"].shape[0])):
     maps = decode_maps({k: g[k][s] for k in MAP_NAMES})
@@ -267,6 +268,8 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, default=256, help="map side of the sampled SVBRDFs")
     ap.add_argument("--views", type=int, default=10)
     ap.add_argument("--res", type=int, default=256)
+    ap.add_argument("--views-per-launch", type=int, default=10,
+                    help="svgen render --views-per-launch: a GPU's per-call cost shared by an SVBRDF's views")
     ap.add_argument("--render-workers", type=int, default=1, help="svgen render --workers (1: one GPU process)")
     ap.add_argument("--sample-workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--compare", type=int, default=3, help="SVBRDFs re-rendered in llvm_ad_rgb and compared")
@@ -308,7 +311,8 @@ def main(argv=None) -> int:
         return 1
     n = _store_n(variants)
 
-    render = ["--views", str(a.views), "--res", str(a.res), "--variant", a.variant, "--workers", str(a.render_workers)]
+    render = ["--views", str(a.views), "--res", str(a.res), "--variant", a.variant, "--workers", str(a.render_workers),
+              "--views-per-launch", str(a.views_per_launch)]
     warm = work / "warm.zarr"
     first = a.preset[:1] or ["paint/glossy_red"]
     run.command(SVGEN + ["sample", str(work / "warm_in.zarr"), "--per-preset", "1", "--size", str(a.size),
@@ -325,7 +329,9 @@ def main(argv=None) -> int:
     if r["ok"]:
         import zarr
 
-        r["store_variant"] = zarr.open_group(str(renders), mode="r").attrs["scene"]["mitsuba_variant"]
+        g = zarr.open_group(str(renders), mode="r")
+        r["store_variant"] = g.attrs["scene"]["mitsuba_variant"]
+        r["views_per_launch"] = g.attrs["config"].get("views_per_launch", 1)
     run.step("render", r)
     if not r["ok"]:
         return 1

@@ -56,7 +56,7 @@ class DataConfig(ConfigModel):
     """random flips and 90° rotations (normals rotated with the image)."""
     crop_at: Literal["random", "centre"] = "random"
     """where a training crop sits in its view: "random" (anywhere), or "centre" (always the view's centre, as
-    evaluation crops: the network then sees the capture geometry of the evaluated window; the #22 probe)."""
+    evaluation crops: the network then sees the capture geometry of the evaluated window)."""
     holdout: float = Field(DEFAULT_HOLDOUT, gt=0, lt=1)
     """fraction of source materials/presets held out for evaluation (split by material, not sample)."""
     workers: int = Field(2, ge=0)
@@ -119,7 +119,7 @@ class OptimConfig(ConfigModel):
     spec_grad: float = Field(0.0, ge=0)
     """weight of an L1 term on the specular map's neighbour differences, predicted against true (0 = off;
     ``train.fit.spec_grad_term``): it prices specular texture that the truth does not have, which the rendering
-    loss pays for when the other maps are wrong (#39 round 9, experiments/real_shape/REPORT.md)."""
+    loss pays for when the other maps are wrong."""
     normal_loss: Literal["l2", "rmse"] = "l2"
     """the form of the ``normal_l2`` term: "l2" (squared error on the unit normals' x and y) or "rmse" (each sample's
     RMSE in the (n+1)/2 encoding, averaged: the metric of ``svtrain eval``, which a pooled squared error is not: it

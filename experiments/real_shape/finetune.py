@@ -47,6 +47,10 @@ ARMS = {
                   "(train.fit.spec_grad_term): the rendering loss pays for a specular copied from the photo "
                   "(spec_sensitivity.py), this term prices it; on the control's training views it is 5 x 0.0046 = "
                   "0.023, about 3x what the copy saves in rendering loss (0.008)"),
+    "spec_grad1": (["--set", "optim.spec_grad=1"],
+                   "round 10: spec_grad's dose: round 9's term at a fifth of its weight (1 x 0.0046 on the control's "
+                   "training views, below the 0.008 the copy saves in rendering loss): does a weight cut the copy "
+                   "without round 9's cost on the real re-render and roughness?"),
     "ndec": (["--set", "model.normal_decoder=true"],
              "(removed in #41; run at commit 614fe8c) a second decoder for the normal (SVBRDF-GAN's fix for flat "
              "normals), grown as a copy of the first"),

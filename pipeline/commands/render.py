@@ -10,7 +10,8 @@ from ..config import RenderConfig
 
 
 @config_command(RenderConfig, {"views": "--views", "res": "--res", "spp": "--spp", "light": "--light",
-                               "sampler": "--sampler", "seed": "--seed", "chunk": "--chunk", "variant": "--variant"})
+                               "sampler": "--sampler", "seed": "--seed", "chunk": "--chunk", "variant": "--variant",
+                               "views_per_launch": "--views-per-launch"})
 @click.argument("paths", nargs=-1, type=click.Path(), metavar="INPUT... OUT")
 @parallel_options
 def render(paths, cfg, workers, scheduler_address):

@@ -107,6 +107,9 @@ class GGXBSDF(mi.BSDF):
 
     Plugin properties (all optional; constant maps are for tests and chi2):
         width, height (int): texture resolution (default 1 x 1); the texel grid spans uv [0, 1]^2.
+        views (int): textures per plane, one per view of a several-views launch (default 1): each plane holds
+            views * height * width texels, view k's from k * height * width on, picked by the interaction's
+            ``time`` (the view index: :mod:`pipeline.render.integrator`). The constant maps fill the first view.
         diffuse, specular (float or 3-vector): constant initial albedo / F0 (defaults 0.5, 0.04).
         roughness (float): constant perceptual roughness (default 0.5).
         normal (3-vector): constant tangent-space normal (default (0, 0, 1)); renormalised.
@@ -120,6 +123,7 @@ class GGXBSDF(mi.BSDF):
         mi.BSDF.__init__(self, props)
         self.width = int(props.get("width", 1))
         self.height = int(props.get("height", 1))
+        self.views = int(props.get("views", 1))
 
         def rgb(name, default):
             v = props.get(name, default)
@@ -135,7 +139,7 @@ class GGXBSDF(mi.BSDF):
             roughness=np.full(hw + (1,), float(props.get("roughness", 0.5)), np.float32),
         )))
         for name, plane in zip(CHANNELS, planes):
-            setattr(self, "tex_" + name, mi.Float(plane))
+            setattr(self, "tex_" + name, mi.Float(np.tile(plane, self.views)))
         flags = (
             mi.BSDFFlags.DiffuseReflection
             | mi.BSDFFlags.GlossyReflection
@@ -153,15 +157,18 @@ class GGXBSDF(mi.BSDF):
 
     def parameters_changed(self, keys=[]):
         # params.update() has already set the attributes named like the parameters (tex_<channel>)
-        expected = self.width * self.height
+        expected = self.width * self.height * self.views
         for name in CHANNELS:
             plane = getattr(self, "tex_" + name)
             if dr.width(plane) != expected:
                 raise ValueError(f"svgen_ggx: plane {name} has {dr.width(plane)} texels, expected {expected} "
-                                 f"({self.height}x{self.width})")
+                                 f"({self.height}x{self.width}{self._of_views()})")
 
     def to_string(self):
-        return f"GGXBSDF[{self.height}x{self.width}]"
+        return f"GGXBSDF[{self.height}x{self.width}{self._of_views()}]"
+
+    def _of_views(self) -> str:
+        return f" x {self.views} views" if self.views > 1 else ""
 
     # ---- texture lookup ---------------------------------------------------------------------------------------
     def _texel(self, si, active):
@@ -169,6 +176,8 @@ class GGXBSDF(mi.BSDF):
         col = mi.UInt32(dr.clip(mi.Int32(dr.floor(si.uv.x * self.width)), 0, self.width - 1))
         row = mi.UInt32(dr.clip(mi.Int32(dr.floor((1.0 - si.uv.y) * self.height)), 0, self.height - 1))
         idx = row * self.width + col
+        if self.views > 1:  # the view's own textures (one view per launch compiles without this term)
+            idx += mi.UInt32(si.time) * (self.height * self.width)
         c = [dr.gather(mi.Float, getattr(self, "tex_" + name), idx, active) for name in CHANNELS]
         n = mi.Vector3f(*c[MAP_SLICES["normal"]])
         d = mi.Color3f(*c[MAP_SLICES["diffuse"]])

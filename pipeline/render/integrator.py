@@ -13,20 +13,53 @@ The image equals ``direct``'s up to float32 rounding of the hit point (the two i
 differently): ``tests/test_render_integrator.py`` bounds the difference, and ``experiments/render_floor/probe_render_floor.py``
 measured it (max relative difference ~1e-5, about 2 differing 8-bit codes per million) and the time saved.
 
+Several views per launch (property ``views`` = V > 1, :class:`pipeline.render.scene.FlashScene`): the scene's
+sensor is a Mitsuba ``batch`` of V cameras side by side on one film, camera k at x = k * :data:`VIEW_PITCH`
+(otherwise the one camera of the scene). Each ray is moved back to the one camera's frame (its origin's x minus
+k * pitch: a power of two, so the view index is exact and the move loses at most ~2e-9 of the origin) and meets
+the one plane; the view index rides in the ray's ``time`` (nothing in the scene moves), which the BSDF reads to
+pick the view's textures (:mod:`pipeline.render.bsdf`). The flash of view k is a point at (flash_x[k],
+flash_y[k], D), evaluated as Mitsuba's ``point`` emitter does (intensity / distance^2); the scene's own emitter
+serves one view per launch only.
+
 Only for the point flash: a sphere flash uses MIS with BSDF samples, whose rays must find the sphere, and keeps
 ``direct``.
 """
 from __future__ import annotations
 
+from materials.capture import CAMERA_DISTANCE, FLASH_INTENSITY
+
 from svcore.mi_env import dr, mi
 
 PLUGIN_NAME = "svgen_plane_flash"
 
+#: x distance between the cameras of a several-views launch: a power of two (k * pitch and the move back are exact)
+#: larger than twice the near-clip offset of a ray's origin (|d.x| near / d.z < 5e-4 in the 50 degree frustum)
+VIEW_PITCH = 2.0 ** -8
+
 
 class PlaneFlashIntegrator(mi.SamplingIntegrator):
-    """``direct`` for a scene of one plane (the scene's first shape) lit by one point light."""
+    """``direct`` for a scene of one plane (the scene's first shape) lit by one point flash per view."""
+
+    def __init__(self, props):
+        mi.SamplingIntegrator.__init__(self, props)
+        self.views = int(props.get("views", 1))
+        self.flash_x = mi.Float(0.0)
+        self.flash_y = mi.Float(0.0)
+
+    def traverse(self, callback):
+        if self.views > 1:
+            callback.put("flash_x", self.flash_x, mi.ParamFlags.NonDifferentiable)
+            callback.put("flash_y", self.flash_y, mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys=[]):
+        if self.views > 1 and (dr.width(self.flash_x) != self.views or dr.width(self.flash_y) != self.views):
+            raise ValueError(f"svgen_plane_flash: flash_x and flash_y need {self.views} values, got "
+                             f"{dr.width(self.flash_x)} and {dr.width(self.flash_y)}")
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
+        if self.views > 1:
+            return self._sample_views(scene, sampler, ray, active)
         r = mi.Ray3f(ray)
         pi = scene.shapes()[0].ray_intersect_preliminary(r, 0, active)
         si = pi.compute_surface_interaction(r, mi.RayFlags.All, active)
@@ -37,11 +70,32 @@ class PlaneFlashIntegrator(mi.SamplingIntegrator):
         val = si.bsdf(ray).eval(mi.BSDFContext(), si, si.to_local(ds.d), act)
         return mi.Spectrum(dr.select(act, val * em, 0.0)), valid, []
 
+    def _sample_views(self, scene, sampler, ray, active):
+        """One lane of a several-views launch: the view index from the camera's offset, then the one-view product."""
+        view_f = dr.round(ray.o.x * (1.0 / VIEW_PITCH))
+        r = mi.Ray3f(ray)
+        r.o.x = ray.o.x - view_f * VIEW_PITCH
+        r.time = view_f  # the view index, for the BSDF's texture lookup (si.time)
+        pi = scene.shapes()[0].ray_intersect_preliminary(r, 0, active)
+        si = pi.compute_surface_interaction(r, mi.RayFlags.All, active)
+        valid = si.is_valid()
+        act = mi.Bool(active) & valid
+        sampler.next_2d(act)  # the emitter sample of the one-view path (a point light does not use it)
+        view = mi.UInt32(view_f)
+        flash = mi.Point3f(dr.gather(mi.Float, self.flash_x, view, act), dr.gather(mi.Float, self.flash_y, view, act),
+                           CAMERA_DISTANCE)
+        # Mitsuba's point emitter: d = p - it.p, inv = rsqrt(|d|^2), d * inv, intensity * inv^2
+        d = flash - si.p
+        inv = dr.rsqrt(dr.squared_norm(d))
+        em = mi.Spectrum(FLASH_INTENSITY) * dr.square(inv)
+        val = si.bsdf(r).eval(mi.BSDFContext(), si, si.to_local(d * inv), act)
+        return mi.Spectrum(dr.select(act, val * em, 0.0)), valid, []
+
     def aov_names(self):
         return []
 
     def to_string(self):
-        return "PlaneFlashIntegrator[]"
+        return f"PlaneFlashIntegrator[views={self.views}]"
 
 
 def register() -> None:

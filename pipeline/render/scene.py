@@ -16,6 +16,14 @@ Per view only two things change, through ``mi.traverse`` + ``params.update()``: 
 and the light's position (or the sphere's transform). Both are kernel inputs, not literals, so the render
 kernel is compiled once per scene and reused (``tests/test_render_scene.py`` checks the kernel history).
 
+Several views per launch (``views`` > 1, point flash only): the sensor is a Mitsuba ``batch`` of that many copies
+of the camera side by side on one film (camera k moved by k * ``integrator.VIEW_PITCH`` in x, which the integrator
+takes back off), the BSDF's planes hold every view's textures one after the other, and the flash of each view is
+the integrator's (:mod:`pipeline.render.integrator`). One ``mi.render`` call then renders all of them: its
+per-call cost (tracing the Python integrator and BSDF, the kernel launch: ~2.5 ms of CPU) is paid once per
+launch. The images equal a launch per view up to the float rounding of the pixel position on the wider film
+(``tests/test_render_views_per_launch.py``).
+
 Integrator: for the point flash, ``svgen_plane_flash`` (:mod:`pipeline.render.integrator`): what Mitsuba's
 ``direct`` computes with 1 emitter sample and 0 BSDF samples (a point light is a delta light, reachable only by
 emitter sampling), with the plane's own intersection and no shadow ray (a plane lit from its front cannot shadow
@@ -75,8 +83,10 @@ def _sphere_transform(x: float, y: float):
     return mi.ScalarTransform4f().translate([x, y, CAMERA_DISTANCE]).scale(SPHERE_RADIUS)
 
 
-def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "independent") -> dict:
+def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "independent", views: int = 1) -> dict:
     """The Mitsuba scene description (light at a default offset; views move it).
+
+    ``views`` > 1 (point flash only): that many views per launch (the module docstring).
 
     Samplers (:data:`SAMPLERS`): "independent" (random positions in the pixel); "stratified" (one random
     position in each cell of a k x k grid, spp = k^2); "centre" (the centres of that grid, no randomness:
@@ -88,6 +98,8 @@ def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "i
         raise ValueError(f"unknown sampler {sampler!r}; use one of {SAMPLERS}")
     if sampler != "independent" and math.isqrt(spp) ** 2 != spp:
         raise ValueError(f"sampler {sampler!r} needs a square spp (1, 4, 9, 16 ...), got {spp}")
+    if views < 1 or (views > 1 and light_model != "point"):
+        raise ValueError(f"views per launch must be 1, or more with the point flash; got {views} with {light_model!r}")
     sampler_dict = ({"type": "independent", "sample_count": spp} if sampler == "independent"
                     else {"type": "stratified", "sample_count": spp, "jitter": sampler == "stratified"})
     d = {
@@ -106,6 +118,16 @@ def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "i
         },
         "plane": {"type": "rectangle", "bsdf": {"type": _bsdf.PLUGIN_NAME, "width": res, "height": res}},
     }
+    if views > 1:
+        camera = {k: v for k, v in d["sensor"].items() if k not in ("film", "sampler")}
+        d["sensor"] = {"type": "batch", "film": {**d["sensor"]["film"], "width": views * res},
+                       "sampler": sampler_dict}
+        for k in range(views):
+            x = k * _integrator.VIEW_PITCH
+            d["sensor"][f"view{k}"] = {**camera, "to_world": mi.ScalarTransform4f().look_at(
+                origin=[x, 0, CAMERA_DISTANCE], target=[x, 0, 0], up=[0, 1, 0])}
+        d["integrator"]["views"] = views
+        d["plane"]["bsdf"]["views"] = views
     if light_model == "point":
         d["light"] = {"type": "point", "position": [0.0, 0.3, CAMERA_DISTANCE],
                       "intensity": {"type": "uniform", "value": FLASH_INTENSITY}}
@@ -124,13 +146,16 @@ class FlashScene:
         spp: samples per pixel.
         light_model: "point" or "sphere".
         sampler: "independent", "stratified" or "centre" (see :func:`scene_dict`).
+        views: views per launch (point flash only; :meth:`render_views_srgb8` renders them).
     """
 
-    def __init__(self, res: int = 256, spp: int = 1, light_model: str = "point", sampler: str = "independent"):
+    def __init__(self, res: int = 256, spp: int = 1, light_model: str = "point", sampler: str = "independent",
+                 views: int = 1):
         if res < 1 or spp < 1:
             raise ValueError(f"res and spp must be positive, got {res}, {spp}")
         self.res, self.spp, self.light_model, self.sampler = int(res), int(spp), light_model, sampler
-        self.scene = mi.load_dict(scene_dict(self.res, self.spp, light_model, sampler))
+        self.views = int(views)
+        self.scene = mi.load_dict(scene_dict(self.res, self.spp, light_model, sampler, self.views))
         self.params = mi.traverse(self.scene)
         self._plane_keys = ["plane.bsdf.tex_" + c for c in _bsdf.CHANNELS]
         self._light_key = "light.position" if light_model == "point" else "light.to_world"
@@ -144,9 +169,9 @@ class FlashScene:
             self.params[self._light_key] = _sphere_transform(x, y)
 
     def set_planes(self, planes: list) -> None:
-        """Set the textures: 10 channel planes (mi.Float, res*res each) already in screen space."""
-        if len(planes) != len(self._plane_keys) or any(dr.width(p) != self.res * self.res for p in planes):
-            raise ValueError(f"need {len(self._plane_keys)} planes of {self.res}^2 texels")
+        """Set the textures: 10 channel planes (mi.Float, views * res * res each) already in screen space."""
+        if len(planes) != len(self._plane_keys) or any(dr.width(p) != self.views * self.res ** 2 for p in planes):
+            raise ValueError(f"need {len(self._plane_keys)} planes of {self.views} x {self.res}^2 texels")
         for key, plane in zip(self._plane_keys, planes):
             self.params[key] = plane
 
@@ -180,6 +205,32 @@ class FlashScene:
         self.params.update()
         img = mi.render(self.scene, params=self.params, seed=int(seed), spp=self.spp)
         return self._encoder(img.array).reshape(self.res, self.res, 3)
+
+    def render_views_srgb8(self, planes: list, lights: list, seed: int) -> np.ndarray:
+        """All views of a several-views scene in one launch, as :meth:`render_planes_srgb8` renders one.
+
+        Args:
+            planes: per view, its 10 mi.Float channel planes of res^2 texels (screen space).
+            lights: per view, its flash offset (x, y).
+            seed: the launch's sampler seed.
+
+        Returns:
+            (views, res, res, 3) uint8 sRGB codes.
+        """
+        from storage.srgb8 import DrjitEncoder
+
+        if self.views < 2 or len(planes) != self.views or len(lights) != self.views:
+            raise ValueError(f"this scene renders {self.views} views per launch, got {len(planes)} planes and "
+                             f"{len(lights)} lights")
+        if self._encoder is None:
+            self._encoder = DrjitEncoder()
+        self.set_planes([dr.concat([p[c] for p in planes]) for c in range(len(self._plane_keys))])
+        self.params["integrator.flash_x"] = mi.Float([float(x) for x, _ in lights])
+        self.params["integrator.flash_y"] = mi.Float([float(y) for _, y in lights])
+        self.params.update()
+        img = mi.render(self.scene, params=self.params, seed=int(seed), spp=self.spp)
+        codes = self._encoder(img.array).reshape(self.res, self.views, self.res, 3)
+        return np.ascontiguousarray(codes.transpose(1, 0, 2, 3))
 
     def render_view(self, base_planes: list, base_res: int, view: ViewParams) -> tuple[np.ndarray, list]:
         """Transform base maps into ``view`` and render them.

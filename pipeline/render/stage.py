@@ -24,15 +24,25 @@ _SCENES: dict[tuple, object] = {}
 _INPUTS: dict[str, SVBRDFStore] = {}
 
 
-def _scene(res: int, spp: int, light: str, sampler: str):
+def _scene(res: int, spp: int, light: str, sampler: str, views: int = 1):
     """The worker process's scene for these settings: loaded once, reused by every task (no recompilation)."""
     from .scene import FlashScene
 
-    key = (res, spp, light, sampler)
+    key = (res, spp, light, sampler, views)
     if key not in _SCENES:
         _SCENES.clear()  # one scene per process at a time: each holds res^2 textures and a compiled kernel
-        _SCENES[key] = FlashScene(res, spp, light, sampler)
+        _SCENES[key] = FlashScene(res, spp, light, sampler, views)
     return _SCENES[key]
+
+
+def scene_for(cfg: RenderConfig):
+    """``views -> FlashScene``: the worker's scene for cfg rendering that many views per call (:func:`render_svbrdf`)."""
+    return functools.partial(_scene, cfg.res, cfg.spp, cfg.light, cfg.sampler)
+
+
+def launch_groups(views: int, per_launch: int) -> list[range]:
+    """The views of one SVBRDF, in launches of ``per_launch`` (the last may be shorter)."""
+    return [range(k, min(views, k + per_launch)) for k in range(0, views, per_launch)]
 
 
 def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
@@ -40,7 +50,7 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
     """All views of one SVBRDF.
 
     Args:
-        scene: a FlashScene matching cfg.
+        scene: ``views -> FlashScene`` matching cfg, rendering that many views per call.
         maps: (B, B, C) base maps (decoded from the store bytes).
         index: the SVBRDF's index (seeds its views).
         cfg: the render configuration.
@@ -57,9 +67,13 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
     b = maps.normal.shape[0]
     views = draw_views(cfg.seed, index, cfg.views, light_radius or (R_MIN, R_MAX), tuple(cfg.zoom))
     images = np.empty((cfg.views, cfg.res, cfg.res, 3), np.uint8)
-    for k, v in enumerate(views):
-        planes = transform_planes(base, b, v, cfg.res)
-        images[k] = scene.render_planes_srgb8(planes, (v.light_x, v.light_y), v.seed)
+    for group in launch_groups(cfg.views, cfg.views_per_launch):
+        planes = [transform_planes(base, b, views[k], cfg.res) for k in group]
+        lights = [(views[k].light_x, views[k].light_y) for k in group]
+        if len(group) == 1:  # one view per call (its own seed): the stored bytes of every default store
+            images[group[0]] = scene(1).render_planes_srgb8(planes[0], lights[0], views[group[0]].seed)
+        else:  # the launch's sampler seed is its first view's (the default 'centre' sampler draws nothing)
+            images[group.start:group.stop] = scene(len(group)).render_views_srgb8(planes, lights, views[group[0]].seed)
     return images, np.stack([v.as_array() for v in views])
 
 
@@ -77,7 +91,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], 
         _INPUTS[inputs] = SVBRDFInputs(inputs)
     src = _INPUTS[inputs]
     start, stop = c * cfg.chunk, min(n, (c + 1) * cfg.chunk)
-    scene = _scene(cfg.res, cfg.spp, cfg.light, cfg.sampler)
+    scene = scene_for(cfg)
     raw = src.read(start, stop)
     images, views = [], []
     for j in range(stop - start):
