@@ -22,7 +22,7 @@ from svcore.errors import ConfigError
 from svcore.seeds import derive_seed
 
 from storage.store import recorded_path, write_chunk
-from storage.svbrdf_store import SVBRDFStore, array_specs, encode_maps
+from storage.svbrdf_store import SVBRDFStore, array_specs, encode_row
 
 from .config import BlendConfig
 from .exec.runner import Stage
@@ -111,9 +111,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, source: str, cfg: BlendCo
     for j in range(start, stop):
         d = draw(j, n_variants, cfg)
         m = make_blend(src, d, cfg).validate()
-        if not data:
-            data = {k: np.empty((stop - start, *getattr(m, k).shape), np.uint16) for k in MAP_NAMES}
-        encode_maps(m, {k: a[j - start] for k, a in data.items()})
+        encode_row(data, stop - start, j - start, m)
         rows.append(d)
     pre = src.preset_table()[:, 0]
     data["seed"] = np.array([r["seed"] for r in rows], np.uint64)

@@ -34,7 +34,7 @@ from svcore.seeds import derive_seed
 
 from storage.bounds import check_store_size
 from storage.store import recorded_path, write_chunk
-from storage.svbrdf_store import SVBRDFStore, array_specs, encode_maps
+from storage.svbrdf_store import SVBRDFStore, array_specs, encode_row
 
 from .config import SampleConfig
 from .exec.runner import Stage
@@ -196,9 +196,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, specs: list, chunk: int, 
     for j, spec in enumerate(specs[start:stop]):
         m, pv = spec.make(sigma, size)
         m = relief.apply(m, spec.seed, modes=spec.relief_modes).validate()
-        if not data:
-            data = {k: np.empty((n, *getattr(m, k).shape), np.uint16) for k in materials.MAP_NAMES}
-        encode_maps(m, {k: a[j] for k, a in data.items()})
+        encode_row(data, n, j, m)
         params[j, :len(pv)] = list(pv.values())
     data["params"] = params
     data["seed"] = np.array([s.seed for s in specs[start:stop]], np.uint64)

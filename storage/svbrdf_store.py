@@ -134,6 +134,14 @@ def encode_maps(m: SVBRDF, out: dict[str, np.ndarray] | None = None) -> dict[str
     return res
 
 
+def encode_row(chunk: dict[str, np.ndarray], n: int, j: int, m: SVBRDF) -> None:
+    """Encode sample ``m`` into row ``j`` of a chunk's uint16 map arrays (the sample and blend tasks' loop): the
+    arrays, ``n`` rows of m's map shapes, are allocated into ``chunk`` at its first sample (no per-sample copies)."""
+    if not all(k in chunk for k in MAP_NAMES):
+        chunk.update({k: np.empty((n, *getattr(m, k).shape), np.uint16) for k in MAP_NAMES})
+    encode_maps(m, {k: chunk[k][j] for k in MAP_NAMES})
+
+
 def decode_maps(d: dict[str, np.ndarray]) -> SVBRDF:
     """On-disk arrays (one sample) -> float32 SVBRDF (normals renormalised)."""
     vals = {k: d[k].astype(np.float32) / Q for k in MAP_NAMES}
