@@ -53,6 +53,7 @@ def test_the_prepared_gpu_run_writes_its_json_log_and_model(tmp_path):
                            "eval_paper_reference"]
     assert all(s["ok"] for s in steps.values() if "ok" in s), {k: s for k, s in steps.items() if not s.get("ok")}
     assert steps["render"]["store_variant"] == "llvm_ad_rgb" and steps["render"]["views"] == 12
+    assert steps["render"]["views_per_launch"] == 10  # the prepared run's default: an SVBRDF's views per launch
     assert steps["render"]["views_per_s"] > 0
     assert [row["max_abs_code"] for row in steps["compare"]["rows"]] == [0, 0]
     for fit in ("fit_compact", "fit_paper"):
