@@ -23,7 +23,8 @@ sys.path.insert(0, str(REPO / "scripts"))
 
 import slim_wheel  # noqa: E402
 
-#: rendered from the slimmed install in a subprocess: the scene of svgen render, a point and a sphere flash
+#: rendered from the slimmed install in a subprocess: the scene of svgen render, a point and a sphere flash, and two
+#: views in one launch (the batch sensor of ``render.views_per_launch``, which the prepared GPU run uses)
 RENDER = """
 import sys, json
 import numpy as np
@@ -36,12 +37,23 @@ from pipeline.render.scene import FlashScene
 from storage.views import ViewParams
 sys.path.insert(0, {tests!r})
 from render_helpers import checker_svbrdf
+from test_slim_wheel import views_per_launch
 maps = checker_svbrdf(16, cells=4)
 view = ViewParams(light_x=0.1, light_y=-0.2, seed=7)
 np.save({out!r}, np.stack([FlashScene(16, 1, light, "centre").render_maps(maps, view, clip=False)
                            for light in ("point", "sphere")]))
+np.save({out_views!r}, views_per_launch(maps))
 print(json.dumps({{"variant": mi.variant(), "file": mitsuba.__file__}}))
 """
+
+
+def views_per_launch(maps) -> np.ndarray:
+    """Two views of ``maps`` in one launch (sRGB codes): what the batch sensor renders."""
+    from pipeline.render.scene import FlashScene
+    from storage.views import planes_of
+
+    p = planes_of(maps)
+    return FlashScene(16, 1, "point", "centre", views=2).render_views_srgb8([p, p], [(0.1, -0.2), (-0.3, 0.2)], 0)
 
 
 def _installed_wheel(dist: str, out_dir: Path) -> Path:
@@ -98,8 +110,8 @@ def test_its_record_names_every_file_with_its_hash(slim_install):
 
 def test_the_slim_install_renders_svgens_scene_as_the_full_one_does(slim_install, tmp_path):
     _, site = slim_install
-    out = tmp_path / "slim.npy"
-    code = RENDER.format(site=str(site), tests=str(REPO / "tests"), out=str(out))
+    out, out_views = tmp_path / "slim.npy", tmp_path / "slim_views.npy"
+    code = RENDER.format(site=str(site), tests=str(REPO / "tests"), out=str(out), out_views=str(out_views))
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO)
     assert r.returncode == 0, r.stderr[-3000:]
     got = json.loads(r.stdout.strip().splitlines()[-1])
@@ -112,6 +124,8 @@ def test_the_slim_install_renders_svgens_scene_as_the_full_one_does(slim_install
     full = np.stack([FlashScene(16, 1, light, "centre").render_maps(maps, view, clip=False)
                      for light in ("point", "sphere")])
     assert full.mean() > 0.05 and np.array_equal(np.load(out), full)
+    views = views_per_launch(maps)
+    assert views.mean() > 10 and np.array_equal(np.load(out_views), views)
 
 
 def test_lzma_members_install_through_pip(tmp_path):
