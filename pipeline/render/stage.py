@@ -30,7 +30,10 @@ def _scene(res: int, spp: int, light: str, sampler: str, views: int = 1):
 
     key = (res, spp, light, sampler, views)
     if key not in _SCENES:
-        _SCENES.clear()  # one scene per process at a time: each holds res^2 textures and a compiled kernel
+        # one setting per process at a time (each scene holds its textures and a compiled kernel); its scenes for
+        # different views per call stay side by side: a task's last launch may be shorter than the others
+        if any(k[:4] != key[:4] for k in _SCENES):
+            _SCENES.clear()
         _SCENES[key] = FlashScene(res, spp, light, sampler, views)
     return _SCENES[key]
 
