@@ -93,3 +93,15 @@ def test_the_sphere_flash_is_refused_in_one_line(variants, tmp_path, svgen_cli):
     assert code != 0 and "views_per_launch 2 needs the point flash" in msg, msg
     assert len(msg.strip().splitlines()) == 1 and "Traceback" not in msg, msg
     assert not (tmp_path / "o.zarr").exists()
+
+
+def test_a_worker_keeps_its_scenes_for_each_launch_size():
+    """10 views in launches of 3 end with a launch of 1: the worker keeps both scenes (loading and compiling one
+    again at every switch would cost more than the launches save); another render setting replaces them."""
+    from pipeline.render import stage
+
+    three = stage._scene(32, 1, "point", "centre", 3)
+    one = stage._scene(32, 1, "point", "centre", 1)
+    assert stage._scene(32, 1, "point", "centre", 3) is three and stage._scene(32, 1, "point", "centre", 1) is one
+    stage._scene(48, 1, "point", "centre", 1)
+    assert all(k[0] == 48 for k in stage._SCENES)
