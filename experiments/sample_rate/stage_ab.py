@@ -28,6 +28,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(1, str(ROOT))  # this checkout's materials registry counts the variants (the arms run in subprocesses)
 
 from harness import SVGEN, machine_info, run_child  # noqa: E402
 
