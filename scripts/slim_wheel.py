@@ -29,11 +29,11 @@ from pathlib import Path
 #: the variants svgen renders in (svcore.mi_env.VARIANTS; a test holds them equal)
 VARIANTS = ("llvm_ad_rgb", "cuda_ad_rgb")
 #: the Mitsuba plugins svgen's scene names (pipeline/render/scene.py; batch: several views per launch), those its
-#: loading adds (merge: the scene's shapes; diffuse: the sphere light's BSDF), and those Mitsuba instantiates when a scene leaves them out
-#: (integrator path, rfilter gaussian, spectra srgb and d65). The plugins a process loaded are the
+#: loading adds (merge: the scene's shapes; diffuse: the sphere light's BSDF), and those Mitsuba instantiates when a
+#: scene leaves them out (integrator path, rfilter gaussian, spectra srgb and d65). The plugins a process loaded are the
 #: ``plugins/*.so`` of its /proc/self/maps; a scene that needs another fails to load, naming it.
-PLUGINS = frozenset({"area", "batch", "box", "direct", "hdrfilm", "independent", "stratified", "perspective", "point",
-                     "rectangle", "sphere", "uniform", "merge", "diffuse", "path", "gaussian", "srgb", "d65"})
+PLUGINS = frozenset({"area", "batch", "box", "direct", "hdrfilm", "independent", "stratified", "perspective",
+                     "point", "rectangle", "sphere", "uniform", "merge", "diffuse", "path", "gaussian", "srgb", "d65"})
 #: a variant module's name: mitsuba/<variant>.cpython-312-x86_64-linux-gnu.so
 _VARIANT_MODULE = re.compile(r"^mitsuba/((?:scalar|llvm|cuda)_[a-z_]+)\.cpython-[^/]+\.so$")
 #: mitsuba's folders and files no svgen render reads
