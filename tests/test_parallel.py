@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import os
 import shutil
-import socket
 import subprocess
 
 import pytest
+from dask_procs import start_scheduler, wait_for_workers
 
 from conftest import stop_processes, tree_digest
 from pipeline.config import SampleConfig
@@ -31,12 +31,6 @@ def test_a_chunk_that_fails_once_is_retried_and_the_store_is_identical(tmp_path,
     assert tree_digest(out) == tree_digest(ref)
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_thread_budget_comes_from_the_worker_not_the_caller():
     """A worker pinned to one CPU (taskset) on a caller with more gets a budget of 1 thread per task."""
     missing = [c for c in ("taskset", "dask") if shutil.which(c) is None]
@@ -44,19 +38,14 @@ def test_thread_budget_comes_from_the_worker_not_the_caller():
         pytest.fail(f"{' and '.join(missing)} not found (taskset: util-linux; dask: requirements)")
     if usable_cpus() < 2:  # the machine, not the installation: a single CPU cannot show a pinned worker's budget
         pytest.skip("needs 2 usable CPUs")
-    port = _free_port()
-    addr = f"tcp://127.0.0.1:{port}"
     env = {**os.environ, "PYTHONPATH": os.getcwd()}
     quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
-    procs = [subprocess.Popen(["dask", "scheduler", "--host", "127.0.0.1", "--port", str(port),
-                               "--dashboard-address", ":0"], **quiet)]
+    scheduler, addr = start_scheduler(env)
+    procs = [scheduler]
     try:
         procs.append(subprocess.Popen(["taskset", "-c", "0", "dask", "worker", addr, "--nthreads", "1",
                                        "--nworkers", "1", "--dashboard-address", ":0", "--no-nanny"], **quiet))
-        from distributed import Client
-
-        with Client(addr, timeout="60s") as c:
-            c.wait_for_workers(1, timeout=60)
+        wait_for_workers(addr, 1)
 
         def threads_seen(chunk: int, threads: int) -> int:  # a closure: cloudpickle sends it by value
             return threads

@@ -1,6 +1,6 @@
 """The reference renders store (issue #21): `svgen reference` imports real material folders at a stated crop and
-renders them with the training views, `svtrain eval-reference` evaluates a run on every view of it; the DVC stages
-reference and eval_reference skip in one line each when params.yaml reference.sources is empty (the default)."""
+renders them with the training views, `svtrain eval-reference` evaluates a run on every view of it. (The DVC stages reference and eval_reference
+skipping in one line each when params.yaml reference.sources is empty, the default: tests/test_dvc_pipeline.py.)"""
 from __future__ import annotations
 
 import json
@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from test_dvc_pipeline import ENV, REPO, copy_project, sh
+from test_dvc_pipeline import REPO
 
 #: the shared CC0 reference folder beside the checkout (../shared/materials-cc0), or SVGEN_REFERENCE_DIR
 REFERENCE = Path(os.environ.get("SVGEN_REFERENCE_DIR") or REPO.parent / "shared" / "materials-cc0")
@@ -22,19 +22,6 @@ def reference_dir() -> Path:
         pytest.skip(f"no reference materials at {REFERENCE} (the shared materials-cc0 folder beside the checkout, "
                     "or SVGEN_REFERENCE_DIR)")
     return REFERENCE
-
-
-def test_reference_stages_skip_when_no_sources(tmp_path):
-    (tmp_path / "proj").mkdir()
-    d = copy_project(tmp_path / "proj")
-    r = sh(["dvc", "repro", "eval_reference"], d, env={**ENV, "SVGEN_WORKERS": "0"})
-    assert "Running stage 'reference'" in r.stdout and "Running stage 'eval_reference'" in r.stdout, r.stdout
-    said = [ln for ln in r.stdout.splitlines() if ln.startswith("no reference sources")]
-    assert len(said) == 2, r.stdout  # one line per stage
-    assert (d / "data/reference").is_dir() and not any((d / "data/reference").iterdir())
-    assert json.loads((d / "runs/eval_reference/eval_metrics.json").read_text()) == {}
-    assert not any((d / "runs/eval_reference/eval").iterdir())
-    assert "up to date" in sh(["dvc", "status", "eval_reference"], d).stdout
 
 
 def test_tiny_reference_store_and_its_evaluation(reference_dir, tmp_path, svgen_cli):

@@ -3,43 +3,28 @@ processes on 127.0.0.1) writes the same bytes as a run in one process."""
 from __future__ import annotations
 
 import os
-import shutil
-import socket
 import subprocess
 
 import pytest
+from dask_procs import dask_command, start_scheduler, wait_for_workers
 from test_render_resume import _svgen, reference, variants  # noqa: F401  (shared module fixtures)
 
 from conftest import stop_processes, tree_digest
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.mark.slow
 def test_distributed_cluster_gives_the_same_bytes(variants, reference, tmp_path):
     """A real scheduler and two workers as separate processes, reached through --scheduler-address."""
-    dask = shutil.which("dask")
-    if dask is None:
-        pytest.fail("the `dask` command (distributed) is not installed")
-    port = _free_port()
-    addr = f"tcp://127.0.0.1:{port}"
+    dask = dask_command()
     env = {**os.environ, "SVGEN_NO_PROGRESS": "1", "PYTHONPATH": os.getcwd()}
-    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port),
-                               "--dashboard-address", ":0"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                              env=env)]
+    scheduler, addr = start_scheduler(env)
+    procs = [scheduler]
     try:
         for _ in range(2):
             procs.append(subprocess.Popen([dask, "worker", addr, "--nthreads", "1", "--nworkers", "1",
                                            "--dashboard-address", ":0", "--no-nanny"],
                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
-        from distributed import Client
-
-        with Client(addr, timeout="60s") as c:
-            c.wait_for_workers(2, timeout=60)
+        wait_for_workers(addr, 2)
         out = tmp_path / "dist.zarr"
         r = subprocess.run(_svgen(variants, out, "--scheduler-address", addr), capture_output=True, text=True,
                            env=env, timeout=240)

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 import signal
 import socket
 import subprocess
@@ -22,6 +21,7 @@ import time
 from urllib.parse import urlparse
 
 import pytest
+from dask_procs import dask_command, start_scheduler, wait_for_workers
 from s3_fixtures import BUCKET, s3, s3_server  # noqa: F401  (fixtures)
 from test_store_s3 import assert_same_store
 
@@ -68,15 +68,10 @@ class Cluster:
     """`dask scheduler` and `dask worker` processes on 127.0.0.1 (README "On a cluster", step 4)."""
 
     def __init__(self, scheduler_env: dict | None = None):
-        self.dask = shutil.which("dask")
-        if self.dask is None:
-            pytest.fail("the `dask` command (distributed) is not installed")
-        self.port = _free_port()
-        self.address = f"tcp://127.0.0.1:{self.port}"
+        self.dask = dask_command()
         self.workers: list[subprocess.Popen] = []
-        self.procs = [subprocess.Popen([self.dask, "scheduler", "--host", "127.0.0.1", "--port", str(self.port),
-                                        "--dashboard-address", ":0"], stdout=subprocess.DEVNULL,
-                                       stderr=subprocess.DEVNULL, env={**_base_env(), **(scheduler_env or {})})]
+        scheduler, self.address = start_scheduler({**_base_env(), **(scheduler_env or {})})
+        self.procs = [scheduler]
 
     def add_worker(self, env: dict[str, str], nanny: bool = True) -> subprocess.Popen:
         """A worker as README says (under a nanny, which restarts it if it dies), or without one (``nanny=False``:
@@ -89,10 +84,7 @@ class Cluster:
         return p
 
     def wait(self, n: int) -> None:
-        from distributed import Client
-
-        with Client(self.address, timeout="60s") as c:
-            c.wait_for_workers(n, timeout=60)
+        wait_for_workers(self.address, n)
 
     def stop(self) -> None:
         stop_processes(self.procs)
