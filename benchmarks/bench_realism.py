@@ -7,15 +7,15 @@ crop window yet). Both go through :func:`pipeline.stats.compare.compare`, which 
 ``svgen stats LIBRARY --reference REFERENCE`` prints: each statistic's distance (1-D Wasserstein, L1 of octave
 shares) beside the reference's split-half noise floor (``--splits`` seeded halvings averaged).
 
-Writes key "statistics" of benchmarks/results/realism.json (its other keys are kept)
-and the chart docs/img/chart_realism.png. A missing reference folder is refused in one line (exit 2).
+Writes key "statistics" of benchmarks/results/realism.json and the chart docs/img/chart_realism.png. A missing
+reference folder is refused in one line (exit 2).
 
 Usage: python3 benchmarks/bench_realism.py [REFERENCE_DIR] [--per-preset 4] [--size 256] [--splits 8] [--seed 0]
 
-A library other than the default (``--set KEY=VALUE``, svgen sample's keys) is written under its own key
-(``--key``), so the default's figures stay; e.g. the fine grain of #23:
+A library other than the default (``--set KEY=VALUE``, svgen sample's keys) is an experiment: it is written to a
+file of its own (``--out``, required with ``--set``), never over the default's; e.g. experiments/library_stats:
 
-    python3 benchmarks/bench_realism.py --set relief=0.06 --set relief_cycles=64 --key statistics_fine_grain
+    python3 benchmarks/bench_realism.py --set relief_spread=0.5 --out experiments/x/realism_spread.json
 """
 from __future__ import annotations
 
@@ -41,13 +41,18 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0, help="seed of the halvings")
     ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                     help="svgen sample setting of the library (repeatable; as `svgen sample --set`)")
-    ap.add_argument("--key", default="statistics", help="key of the results file written [default: statistics]")
-    ap.add_argument("--out", default=str(RESULTS / "realism.json"))
+    ap.add_argument("--out", default=None, help="results file [default: benchmarks/results/realism.json; "
+                    "required with --set]")
     ap.add_argument("--chart", default=None, help="chart path [default: docs/img/chart_realism.png for the "
-                    "default key, none otherwise]")
+                    "default library and file, none otherwise]")
     a = ap.parse_args(argv)
-    if a.chart is None and a.key == "statistics":
-        a.chart = str(IMG / "chart_realism.png")
+    if a.sets and a.out is None:
+        print("bench_realism: a library other than the default (--set) is written to a file of its own: pass --out",
+              file=sys.stderr)
+        return 2
+    if a.out is None:
+        a.out = str(RESULTS / "realism.json")
+        a.chart = a.chart or str(IMG / "chart_realism.png")
     ref_dir = Path(a.reference)
     if not ref_dir.is_dir():
         print(f"bench_realism: no reference folder at {ref_dir} (pass the folder of real materials)", file=sys.stderr)
@@ -85,11 +90,11 @@ def main(argv=None) -> int:
            "library": {"config": "default", "per_preset": a.per_preset, "size": a.size, "seed": 0,
                        **({"settings": overrides} if overrides else {})},
            "stats_wall_s": round(t.wall_s, 1), "report": report}
-    update_results(a.out, a.key, res, note=a.note)
+    update_results(a.out, "statistics", res, note=a.note)
     if a.chart:
         chart(report, a.chart)  # benchmarks/charts/realism.py redraws it from the JSON
     print(table(report))
-    print(f"wrote {a.out} (key {a.key})" + (f" and {a.chart}" if a.chart else ""))
+    print(f"wrote {a.out}" + (f" and {a.chart}" if a.chart else ""))
     return 0
 
 

@@ -1,5 +1,6 @@
 """benchmarks/bench_realism.py: refuses a missing reference folder in one line, keeps the other keys of the results
-file it shares, and on the real reference folder (skipped, saying so, when it is absent) writes every statistic."""
+file it shares, writes a library other than the default only to a file of its own, and on the real reference folder
+(skipped, saying so, when it is absent) writes every statistic."""
 from __future__ import annotations
 
 import json
@@ -76,18 +77,26 @@ def test_a_bad_library_setting_is_one_line(tmp_path, setting):
     assert not (tmp_path / "r.json").exists()
 
 
-def test_a_library_setting_reaches_the_library_and_its_own_key(reference_dir, tmp_path):
+def test_a_library_setting_reaches_the_library_in_its_own_file(reference_dir, tmp_path):
     """``--set`` changes the library measured (a strong band of relief at 24 cycles per 64-pixel map puts most
-    slope power in the finest octave, 16-32 cycles) and ``--key`` keeps the default's figures and chart."""
+    slope power in the finest octave, 16-32 cycles), written to the ``--out`` file with no chart."""
     out = tmp_path / "realism.json"
-    out.write_text(json.dumps({"statistics": {"kept": True}}))
     r = bench(reference_dir, "--per-preset", 1, "--size", 64, "--splits", 2, "--out", out,
-              "--set", "relief=0.5", "--set", "relief_cycles=24", "--key", "statistics_band")
+              "--set", "relief=0.5", "--set", "relief_cycles=24")
     assert r.returncode == 0, r.stderr
-    d = json.loads(out.read_text())
-    assert d["statistics"] == {"kept": True}
-    res = d["statistics_band"]
+    res = json.loads(out.read_text())["statistics"]
     assert res["library"]["settings"] == {"relief": 0.5, "relief_cycles": 24}
     shares = res["report"]["octave_shares"]["svgen default library"]
     assert shares[res["report"]["octaves"].index([16, 32])] > 0.6, shares  # the default library: 0.36
     assert not list(tmp_path.glob("*.png"))
+
+
+def test_a_library_setting_without_its_own_file_is_refused(tmp_path):
+    """The maintained results file holds the default library only: ``--set`` without ``--out`` is refused in one
+    line before anything runs, and the committed file is untouched."""
+    maintained = ROOT / "benchmarks" / "results" / "realism.json"
+    before = maintained.read_bytes()
+    r = bench(tmp_path, "--set", "relief=0.5")
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.count("\n") == 1 and "--out" in r.stderr
+    assert maintained.read_bytes() == before
