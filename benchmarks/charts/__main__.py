@@ -11,7 +11,8 @@
 6. codecs: bytes per view against CPU-s per view of the store codecs and layouts (experiments/store_codecs,
    frozen; drawn by its chart_codecs.py);
 7. ablation: per claim of the paper, held-out error against training CPU time of both arms with their seed spread,
-   and the effects table beside it (ablation.py, charts/ablation.py).
+   and the effects table beside it (ablation.py; the 2026-11-24 grid's results and chart frozen in
+   experiments/ablation).
 A chart whose results file is missing is skipped with a note (run its benchmark first).
 """
 from __future__ import annotations
@@ -31,6 +32,8 @@ plt = pyplot()
 TRAIN_BUDGET = ROOT / "experiments" / "train_budget" / "results"
 #: the store codec measurement behind chart 6: a finished experiment, its chart code and results frozen there
 STORE_CODECS = ROOT / "experiments" / "store_codecs"
+#: the ablation grid of 2026-11-24 behind chart 7 (run by benchmarks/ablation.py): its chart code and results there
+ABLATION = ROOT / "experiments" / "ablation"
 CSV = RESULTS  # --out sends the PNGs and CSVs into one folder
 
 
@@ -159,7 +162,8 @@ def main(argv=None) -> int:
             "stress": chart_stress(),
             "codecs": _external(STORE_CODECS / "chart_codecs.py", "plot", "codecs.json", "chart_codecs.png",
                                 STORE_CODECS / "results"),
-            "ablation": _external("charts.ablation", "plot", "ablation.json", "chart_ablation.png")}
+            "ablation": _external(ABLATION / "chart_ablation.py", "plot", "ablation.json", "chart_ablation.png",
+                                  ABLATION / "results")}
     for name, p in made.items():
         print(f"{name:10s} {p if p else 'skipped: run its benchmark first'}")
     return 0
