@@ -114,3 +114,17 @@ def stop_processes(procs) -> None:
             p.wait(timeout=10)
         except subprocess.TimeoutExpired:
             p.kill()
+
+
+@pytest.fixture(scope="session")
+def tiny_dvc_project(tmp_path_factory):
+    """The repository as a git + DVC project with tiny params (tests/dvc_project.py), `dvc repro` done once in
+    this process (SVGEN_WORKERS=0): (the project, that repro's stdout). Shared: tests that change it take a copy
+    (``dvc_project.clone_project``)."""
+    from types import SimpleNamespace
+
+    from dvc_project import FAST, copy_project, sh
+
+    d = copy_project(tmp_path_factory.mktemp("tiny_dvc"))
+    r = sh(["dvc", "repro"], d, env=FAST)
+    return SimpleNamespace(path=d, repro_stdout=r.stdout)

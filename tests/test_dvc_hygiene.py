@@ -2,8 +2,9 @@
 commands, a small flat `dvc metrics show`, `dvc plots show` drawing the charts of docs/PERFORMANCE.md, every config
 key one `dvc exp run -S` away, and a `dvc push` / `dvc pull` round trip through a local directory remote.
 
-The static checks read dvc.yaml, params.yaml and the source; the others run `dvc repro` once on a temporary copy
-of the repository with the repository's params.yaml and tiny values (tests/test_dvc_pipeline.py's copy rules).
+The static checks read dvc.yaml, params.yaml and the source; the others use the temporary copy of the repository
+with the repository's params.yaml and tiny values that one `dvc repro` brought up to date (conftest's
+tiny_dvc_project, shared with tests/test_dvc_pipeline.py).
 """
 from __future__ import annotations
 
@@ -17,18 +18,14 @@ import pytest
 import yaml
 
 from conftest import tree_digest
-from test_dvc_pipeline import ENV, REPO, TINY, _merge, sh
+from dvc_project import ENV, FAST, REPO, clone_project, sh
 
 sys.path.insert(0, str(REPO / "scripts"))
 import params_yaml  # noqa: E402
 import stage_deps  # noqa: E402
 
-# one xdist worker for the module: the tiny `dvc repro` fixture (about 100 s on 2 cores) is made once, not once per
-# worker that draws one of its tests
-pytestmark = pytest.mark.xdist_group("dvc_hygiene")
-
-#: the tiny pipeline runs in process (no dask workers to start): a machine setting, which reruns nothing
-FAST = {**ENV, "SVGEN_WORKERS": "0"}
+# the xdist worker of test_dvc_pipeline: the tiny `dvc repro` project (about 80 s on 2 cores) is made once for both
+pytestmark = pytest.mark.xdist_group("dvc_pipeline")
 STAGES = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
 
 
@@ -136,25 +133,11 @@ def test_params_yaml_check_names_a_missing_key(tmp_path):
 
 
 # -- the tiny pipeline ----------------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def repro(tmp_path_factory):
-    """A copy of the repository (tracked files) as a git + DVC project: the repository's params.yaml with tiny
-    values, `dvc repro` done once."""
-    if shutil.which("dvc") is None:
-        pytest.fail("dvc is not installed: run scripts/setup.sh")
-    d = tmp_path_factory.mktemp("hygiene")
-    for f in sh(["git", "ls-files"], REPO).stdout.split():
-        if (REPO / f).is_file():
-            (d / f).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(REPO / f, d / f)
-    params = yaml.safe_load((d / "params.yaml").read_text())
-    _merge(params, {k: v for k, v in TINY.items() if k != "workers"})
-    _merge(params, {"train": {"optim": {"log_every": 1}}})  # a training curve of several points
-    (d / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
-    (d / "dvc.lock").unlink(missing_ok=True)
-    sh("git init -q && git add -A && git commit -qm init", d)
-    sh(["dvc", "repro"], d, env=FAST)
-    return d
+@pytest.fixture
+def repro(tiny_dvc_project):
+    """The shared tiny project, `dvc repro` done (conftest's tiny_dvc_project): tests here leave it as they found
+    it (the experiment runs on a copy)."""
+    return tiny_dvc_project.path
 
 
 def test_every_file_the_fit_stage_writes_is_an_output(repro):
@@ -285,9 +268,10 @@ def test_push_then_pull_from_a_local_remote_is_bit_identical(repro, tmp_path):
 
 
 # -- 5. one `dvc exp run -S` of a nested key ------------------------------------------------------------------
-def test_exp_run_sets_a_nested_training_key(repro):
+def test_exp_run_sets_a_nested_training_key(repro, tmp_path):
     """A key the tiny overrides do not touch (the train.model section was missing from params.yaml before, and
     DVC refuses -S on a key that is not in the file: "Key 'model' is not in struct")."""
+    repro = clone_project(repro, tmp_path / "proj")  # the experiment changes params.yaml and the fit's outputs
     sh("git add -A && git commit -qm repro", repro)
     # the fit stage alone: what follows it would rerun too, and proves nothing more about -S
     r = sh(["dvc", "exp", "run", "-S", "train.model.decoder_convs=2", "fit"], repro, env=FAST)

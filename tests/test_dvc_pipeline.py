@@ -9,83 +9,40 @@ import difflib
 import json
 import os
 import shlex
-import shutil
 import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 import yaml
 
 from conftest import chunk_stats, tree_digest
+from dvc_project import ENV, REPO, clone_project, merge, sh
 
-REPO = Path(__file__).resolve().parents[1]
-#: 4 of the library's classes (28 presets): the DVC mechanics need a few materials, not the library (the whole
-#: library, 182 presets, made every repro and each kill's reruns spend most of their time on sample and render)
-TINY_CLASSES = ["fabric", "metal", "stone", "wood"]
-TINY = {
-    "sample": {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8, "classes": TINY_CLASSES},
-    "blend": {"count": 8, "seed": 0, "alpha_low": 0.2, "alpha_high": 0.8, "mode": "scalar", "chunk": 8},
-    "render": {"views": 2, "res": 64, "spp": 1, "light": "point", "sampler": "centre", "seed": 0, "chunk": 2},
-    "train": {"config_preset": "compact", "model": {"base_width": 4, "max_width": 8, "levels": 3},
-              "data": {"crop": 32, "workers": 0},
-              "optim": {"iterations": 4, "batch_size": 2, "checkpoint_every": 2, "compile_loss": False}},
-    "eval": {"limit": 8, "extra_stores": []},
-    "stress": {"per_category": 1, "size": 64, "seed": 0},
-    "import": {"sources": []},
-    "reference": {"sources": []},
-}
-ENV = {**os.environ, "SVGEN_NO_PROGRESS": "1", "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t",
-       "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
-
-
-def sh(cmd, cwd, check=True, env=None, **kw):
-    r = subprocess.run(cmd, cwd=cwd, env=env or ENV, capture_output=True, text=True, shell=isinstance(cmd, str),
-                       **kw)
-    if check and r.returncode != 0:
-        raise AssertionError(f"{cmd} failed ({r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
-    return r
-
-
-# one xdist worker for the module: the kill tests reuse the project that the repro test (or the previous kill) brought
-# up to date; spread over two workers, each made its own project and reran every stage upstream of its kill
+# one xdist worker for this module and test_dvc_hygiene: they share the tiny project of one `dvc repro` (conftest's
+# tiny_dvc_project), and the kill tests each continue the copy the previous kill left
 pytestmark = pytest.mark.xdist_group("dvc_pipeline")
 
 
 @pytest.fixture(scope="module")
-def project(tmp_path_factory):
-    """A copy of the tracked files of this repository as a fresh git + DVC project with tiny params."""
-    return copy_project(tmp_path_factory.mktemp("proj"))
+def project(tiny_dvc_project, tmp_path_factory):
+    """A copy of the shared tiny project, up to date: the kill tests change its params and kill its stages."""
+    return clone_project(tiny_dvc_project.path, tmp_path_factory.mktemp("kills") / "proj")
 
 
-def copy_project(d: Path, params: dict = TINY) -> Path:
-    """The tracked files of this repository copied into ``d`` as a fresh git + DVC project with ``params``."""
-    if shutil.which("dvc") is None:
-        pytest.fail("dvc is not installed: run scripts/setup.sh")
-    for f in sh(["git", "ls-files"], REPO).stdout.split():
-        if (REPO / f).is_file():
-            (d / f).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(REPO / f, d / f)
-    (d / "params.yaml").write_text(yaml.safe_dump(params))
-    (d / "dvc.lock").unlink(missing_ok=True)
-    sh("git init -q && git add -A && git commit -qm init", d)
-    return d
-
-
-def test_repro_runs_every_stage_then_nothing(project):
-    r = sh(["dvc", "repro"], project)
+def test_repro_runs_every_stage_then_nothing(tiny_dvc_project):
+    project, stdout = tiny_dvc_project.path, tiny_dvc_project.repro_stdout
     for stage in ("sample", "blend", "render", "fit", "eval", "stress", "eval_stress", "reference", "eval_reference",
                   "charts"):
-        assert f"Running stage '{stage}'" in r.stdout, r.stdout[-2000:]
+        assert f"Running stage '{stage}'" in stdout, stdout[-2000:]
     for out in ("data/variants.zarr", "data/blends.zarr", "data/renders.zarr", "runs/train/checkpoint.pt",
                 "runs/eval/eval.json", "runs/eval/eval.md", "runs/train/loss.csv", "runs/eval_stress/eval.md",
                 "runs/charts/chart_render.png", "runs/charts/chart_stress.png", "runs/eval_stress/eval.png"):
         assert (project / out).exists(), out
     # reference.sources is empty (the default): the reference stages skip in one line each and leave empty outputs
-    said = [ln for ln in r.stdout.splitlines() if ln.startswith("no reference sources")]
-    assert len(said) == 2, r.stdout
+    said = [ln for ln in stdout.splitlines() if ln.startswith("no reference sources")]
+    assert len(said) == 2, stdout
     assert (project / "data/reference").is_dir() and not any((project / "data/reference").iterdir())
     assert json.loads((project / "runs/eval_reference/eval_metrics.json").read_text()) == {}
     assert not any((project / "runs/eval_reference/eval").iterdir())
@@ -99,10 +56,8 @@ def test_repro_runs_every_stage_then_nothing(project):
     lock = (project / "dvc.lock").read_text()
     sh("git add -A && git commit -qm 'the first run'", project)
     data = ["import", "sample", "blend", "render", "stress", "reference"]
-    # in one process each (SVGEN_WORKERS=0, a machine setting that changes no byte): the dask workers' start is
-    # the kill tests' to cover, and here it cost ~3 s a stage
-    later = sh(["dvc", "repro", "--force", "--single-item", *data], project,
-               env={**ENV, "TZ": "Pacific/Kiritimati", "SVGEN_WORKERS": "0"})
+    # with dask workers (the first run had none: SVGEN_WORKERS=0), so the worker count must change no byte either
+    later = sh(["dvc", "repro", "--force", "--single-item", *data], project, env={**ENV, "TZ": "Pacific/Kiritimati"})
     assert all(f"Running stage '{stage}'" in later.stdout for stage in data), later.stdout[-2000:]
     changed = list(difflib.unified_diff(lock.splitlines(), (project / "dvc.lock").read_text().splitlines(), n=6))
     assert not changed, "\n".join(changed[:60])
@@ -129,21 +84,13 @@ STAGES = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
 SVTRAIN = [sys.executable, "-c", "from train.cli import main; main()"]
 
 
-def _merge(d: dict, upd: dict) -> None:
-    for k, v in upd.items():
-        if isinstance(v, dict):
-            _merge(d.setdefault(k, {}), v)
-        else:
-            d[k] = v
-
-
 @pytest.mark.parametrize("stage", list(KILLS))
 def test_sigkill_during_a_stage_then_repro_gives_the_same_outputs(project, stage):
     """SIGKILL the whole `dvc repro STAGE` session while ``stage`` is half done, `dvc repro STAGE` again: its output
     equals a clean run of the same command (written here beside it, in this process's own worker setting)."""
     change, marker, entries = KILLS[stage]
     params = yaml.safe_load((project / "params.yaml").read_text())
-    _merge(params, change)
+    merge(params, change)
     (project / "params.yaml").write_text(yaml.safe_dump(params))
     marker = project / marker
     for name in ("checkpoint.pt", "model.pt"):  # not mistaken for the new run's

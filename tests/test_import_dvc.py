@@ -13,7 +13,7 @@ import yaml
 
 from conftest import tree_digest
 from import_fixtures import ambientcg, bumpy_normals
-from test_dvc_pipeline import ENV, REPO, sh  # the same project copy rules
+from dvc_project import ENV, REPO, sh  # the same project copy rules
 
 IN_PROCESS = {**ENV, "SVGEN_WORKERS": "0"}  # the stages run without dask workers (a machine setting, not a param)
 

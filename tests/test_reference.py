@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from test_dvc_pipeline import REPO
+from dvc_project import REPO
 
 #: the shared CC0 reference folder beside the checkout (../shared/materials-cc0), or SVGEN_REFERENCE_DIR
 REFERENCE = Path(os.environ.get("SVGEN_REFERENCE_DIR") or REPO.parent / "shared" / "materials-cc0")
