@@ -18,11 +18,12 @@ puts them into the results file beside the rows already there, under ``s3_run`` 
 """
 from __future__ import annotations
 
+import json
 import os
 import shutil
-import socket
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 from harness import RESULTS, SVGEN, parser, timed, tree_digest, write_results
@@ -30,10 +31,23 @@ from harness import RESULTS, SVGEN, parser, timed, tree_digest, write_results
 N_PRESET = 6  # x 2 variants = 12 SVBRDFs
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def _scheduler(env: dict, folder: Path) -> tuple[subprocess.Popen, str]:
+    """`dask scheduler` on a port of its own choosing, its address read from its scheduler file (a port picked here
+    and released could be taken by another process before the scheduler binds it)."""
+    file = folder / "scheduler.json"
+    proc = subprocess.Popen(["dask", "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                             "--scheduler-file", str(file)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while True:
+        try:
+            return proc, json.loads(file.read_text())["address"]
+        except (FileNotFoundError, ValueError, KeyError):
+            pass
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            raise SystemExit("bench_scaleout: `dask scheduler` did not start")
+        time.sleep(0.1)
 
 
 def _render(inp: Path, out: Path, extra: list[str]) -> float:
@@ -146,11 +160,8 @@ def main(argv=None) -> None:
             rows.append({"config": f"local {w} worker{'s' if w > 1 else ''}", "workers": w, "wall_s": wall,
                          "views_per_s_total": n_views / wall,
                          "views_per_s_steady": _steady(inp, tmp / f"steady{w}.zarr", w, None)})
-        port = _free_port()
-        addr = f"tcp://127.0.0.1:{port}"
         env = {**os.environ, "DASK_DISTRIBUTED__WORKER__DAEMON": "False"}
-        sched = subprocess.Popen(["dask", "scheduler", "--host", "127.0.0.1", "--port", str(port),
-                                  "--no-dashboard"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        sched, addr = _scheduler(env, tmp)
         workers = [subprocess.Popen(["dask", "worker", addr, "--nthreads", "1", "--no-dashboard",
                                      "--host", "127.0.0.1"], env=env, stdout=subprocess.DEVNULL,
                                     stderr=subprocess.DEVNULL) for _ in range(2)]
