@@ -1,8 +1,8 @@
 """`dvc repro` end to end on a temporary copy of the repository with a tiny parameter set: every stage runs (the
 reference stages skip in one line each without sources), metrics and plots are readable, a second `dvc repro` does
-nothing, and a SIGKILL in the middle of each of the blend, render and fit stages followed by `dvc repro STAGE` resumes it (the chunks finished before the kill are
-kept, not rewritten; the fit continues from its checkpoint's step) and ends with the outputs of an uninterrupted
-run."""
+nothing, and a SIGKILL in the middle of each of the blend, render and fit stages followed by `dvc repro STAGE`
+resumes it (the chunks finished before the kill are kept, not rewritten; the fit continues from its checkpoint's
+step) and ends with the outputs of an uninterrupted run."""
 from __future__ import annotations
 
 import difflib

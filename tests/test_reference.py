@@ -1,6 +1,7 @@
-"""The reference renders store (issue #21): `svgen reference` imports real material folders at a stated crop and
-renders them with the training views, `svtrain eval-reference` evaluates a run on every view of it. (The DVC stages reference and eval_reference
-skipping in one line each when params.yaml reference.sources is empty, the default: tests/test_dvc_pipeline.py.)"""
+"""The reference renders store (issue #21): `svgen reference` imports real material folders at a stated crop and renders
+them with the training views, `svtrain eval-reference` evaluates a run on every view of it. (The DVC stages reference
+and eval_reference skipping in one line each when params.yaml reference.sources is empty, the default:
+tests/test_dvc_pipeline.py.)"""
 from __future__ import annotations
 
 import json
