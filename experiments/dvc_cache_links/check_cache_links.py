@@ -142,7 +142,7 @@ def main() -> int:
               f"on disk {x['disk_bytes_each_inode_once'] / 1e6:7.1f} MB; shared inodes "
               f"{x['outputs_sharing_an_inode_with_the_cache']}/{x['output_files']}; bad cache files "
               f"{len(x['cache_files_not_matching_their_md5'])}; checkpoint links before the 2nd fit "
-              f"{r['checkpoint_links_before_the_second_fit']}; fit up to date {r["fit_stage_up_to_date"]}")
+              f"{r['checkpoint_links_before_the_second_fit']}; fit up to date {r['fit_stage_up_to_date']}")
     print(f"wrote {a.out}")
     return 0
 
