@@ -15,6 +15,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from svcore.config import merge  # noqa: F401  (the tests that change params merge with it too)
+
 REPO = Path(__file__).resolve().parents[1]
 #: 4 of the library's classes (28 presets): the DVC mechanics need a few materials, not the library (the whole
 #: library, 182 presets, made every repro and each kill's reruns spend most of their time on sample and render)
@@ -44,15 +46,6 @@ def sh(cmd, cwd, check=True, env=None, **kw):
     if check and r.returncode != 0:
         raise AssertionError(f"{cmd} failed ({r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
     return r
-
-
-def merge(d: dict, upd: dict) -> None:
-    """Merge ``upd`` into ``d`` in place, nested dicts key by key."""
-    for k, v in upd.items():
-        if isinstance(v, dict):
-            merge(d.setdefault(k, {}), v)
-        else:
-            d[k] = v
 
 
 def copy_project(d: Path, params: dict | None = None) -> Path:

@@ -5,7 +5,7 @@ stored twice, once in the workspace and once in .dvc/cache. With ``cache.type ha
 cache entry share one inode, which is safe only if nothing writes into a finished output in place: svgen writes
 stores under ``OUT.partial`` and renames them, and the fit's persisted checkpoint is replaced with ``os.replace``.
 
-For each cache type (the default, and hardlink,symlink), on a copy of this repository's tracked files with tiny
+For each cache type (the default, and hardlink,symlink), on a clone of this repository's HEAD with tiny
 params: `dvc repro` (in process, SVGEN_WORKERS=0), then a second fit over the persisted checkpoint (`dvc repro fit`
 after raising train.optim.iterations: a changed config, so the fit starts again and replaces the checkpoint that DVC
 left in place, linked to the cache in the second case), then the bytes of the outputs and of the cache (counting
@@ -27,6 +27,8 @@ import tempfile
 from pathlib import Path
 
 import yaml
+
+from svcore.config import merge
 
 ROOT = Path(__file__).resolve().parents[2]
 #: tiny params (tests/dvc_project.py's TINY, fewer keys): the DVC mechanics, not the data, are measured here
@@ -53,25 +55,14 @@ def sh(cmd, cwd: Path) -> str:
     return r.stdout
 
 
-def merge(d: dict, upd: dict) -> None:
-    for k, v in upd.items():
-        if isinstance(v, dict):
-            merge(d.setdefault(k, {}), v)
-        else:
-            d[k] = v
-
-
 def project(d: Path) -> Path:
-    """This repository's tracked files in ``d``, a fresh git + DVC project with :data:`TINY` merged into params."""
-    for f in sh(["git", "ls-files"], ROOT).split("\n"):
-        if f and (ROOT / f).is_file():
-            (d / f).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(ROOT / f, d / f)
+    """A clone of this repository's HEAD in ``d`` with :data:`TINY` merged into params.yaml and no dvc.lock."""
+    sh(["git", "clone", "-q", str(ROOT), str(d)], ROOT)
     params = yaml.safe_load((d / "params.yaml").read_text())
     merge(params, TINY)
     (d / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
-    (d / "dvc.lock").unlink(missing_ok=True)
-    sh("git init -q && git add -A && git commit -qm init", d)
+    (d / "dvc.lock").unlink()
+    sh("git commit -qam 'tiny params, no lock'", d)
     return d
 
 
