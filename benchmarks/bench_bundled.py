@@ -5,8 +5,8 @@ Measured:
 * the bundled weights file (``train/bundled/model.pt``): bytes and parameters;
 * the wheel (``pip wheel . --no-deps --no-build-isolation`` of a copy of the tracked files): bytes (bar: 20 MB);
 * ``svtrain export-model bundled --format onnx``: export seconds, the first in the process (what one
-  `svtrain export-model` call pays: it imports the onnx package, whose ml_dtypes extension alone takes about 1.5 s
-  here) and a second one (``onnx_export_warm_s``), the .onnx bytes, and on ``--photos`` seeded
+  `svtrain export-model` call pays: it imports the onnx package, timed alone in a fresh process as
+  ``onnx_import_s``) and a second one (``onnx_export_warm_s``), the .onnx bytes, and on ``--photos`` seeded
   synthetic flash photos (a falloff lobe over a random texture, linear [0, 1]) at two sizes, 256² and 256 x 384
   (dynamic axes), the largest absolute difference between onnxruntime's and torch's decoded maps, and the
   seconds per photo of each runtime (one thread each, the median of 3 runs).
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness import RESULTS, ROOT, parser, timed, write_results
+from harness import RESULTS, ROOT, parser, run_child, timed, write_results
 
 SIZES = ((256, 256), (256, 384))
 WHEEL_BAR = 20 * 1024 * 1024
@@ -94,7 +94,8 @@ def main() -> None:
         "model_bytes": model_file.stat().st_size, "parameters": count_parameters(net), "steps": state["step"],
         "wheel_bytes": wheel, "wheel_bar_bytes": WHEEL_BAR, "wheel_under_bar": wheel < WHEEL_BAR,
         "onnx_bytes": onnx_bytes, "onnx_export_s": t.wall_s,
-        "onnx_export_warm_s": warm.wall_s, "onnx_vs_torch": rows,
+        "onnx_export_warm_s": warm.wall_s,
+        "onnx_import_s": run_child([sys.executable, "-c", "import onnx"])["wall_s"], "onnx_vs_torch": rows,
         "max_abs_diff": max(r["max_abs_diff"] for r in rows)}, args.note)
     print(f"model {model_file.stat().st_size / 1e6:.2f} MB, wheel {wheel / 1e6:.2f} MB, onnx {onnx_bytes / 1e6:.2f} "
           f"MB, max |onnx - torch| {max(r['max_abs_diff'] for r in rows):.2e}")

@@ -4,44 +4,31 @@ from __future__ import annotations
 
 import json
 
-import shutil
 from pathlib import Path
 
 import numpy as np
-import pytest
 import yaml
 
 from conftest import tree_digest
 from import_fixtures import ambientcg, bumpy_normals
-from dvc_project import ENV, REPO, sh  # the same project copy rules
-
-IN_PROCESS = {**ENV, "SVGEN_WORKERS": "0"}  # the stages run without dask workers (a machine setting, not a param)
+from dvc_project import FAST, REPO, copy_project, sh  # the same project copy rules
 
 SAMPLE = {"per_preset": 1, "size": 64, "seed": 0, "sigma": 0.25, "chunk": 8, "presets": ["paint/glossy_red"],
           "per_material": 2}
 
 
 def project(d, sources):
-    files = sh(["git", "ls-files"], REPO).stdout.split()
-    for f in files:
-        if (REPO / f).is_file():
-            (d / f).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(REPO / f, d / f)
-    params = yaml.safe_load((d / "params.yaml").read_text())
+    """The repository as a git + DVC project (dvc_project.copy_project) with the tiny sample and ``sources``."""
+    params = yaml.safe_load((REPO / "params.yaml").read_text())
     params.update({"sample": SAMPLE, "import": {"sources": sources}})
-    (d / "params.yaml").write_text(yaml.safe_dump(params))
-    (d / "dvc.lock").unlink(missing_ok=True)
-    sh("git init -q && git add -A && git commit -qm init", d)
-    return d
+    return copy_project(d, params)
 
 
 def test_dvc_import_stage(tmp_path):
-    if shutil.which("dvc") is None:  # a project requirement: its absence is a failure, not a skip (issue #28)
-        pytest.fail("dvc is not installed: run scripts/setup.sh")
     from storage.svbrdf_store import SVBRDFStore
 
     empty = project(tmp_path / "empty", [])
-    r = sh(["dvc", "repro", "sample"], empty, env=IN_PROCESS)
+    r = sh(["dvc", "repro", "sample"], empty, env=FAST)
     assert "Running stage 'import'" in r.stdout and "Running stage 'sample'" in r.stdout, r.stdout
     # the reference: the sample stage's own function, without any import code path
     from pipeline.config import SampleConfig
@@ -61,7 +48,7 @@ def test_dvc_import_stage(tmp_path):
     src = tmp_path / "library"
     ambientcg(src, "Rock", 64, np.random.default_rng(0), {"GL": bumpy_normals(64, np.random.default_rng(1))})
     full = project(tmp_path / "full", [str(src)])
-    r = sh(["dvc", "repro", "sample"], full, env=IN_PROCESS)
+    r = sh(["dvc", "repro", "sample"], full, env=FAST)
     v = SVBRDFStore(full / "data/variants.zarr")
     assert v.presets == ["paint/glossy_red", "imported/Rock"] and len(v) == 1 + 2
     assert "up to date" in sh(["dvc", "status", "sample"], full).stdout
