@@ -7,7 +7,11 @@ quantisation):
 
 - ``relief_codes``: RMS of photo(true maps) - photo(flat normals), in codes: the relief's footprint in the photo;
 - ``texture_codes``: RMS of photo(flat normals) - photo(flat normals, each other map at its view mean): what the
-  colour, specular and roughness texture puts there, the signal a network must not read as relief;
+  colour, specular and roughness texture puts there, the signal a network must not read as relief; and the same with
+  only the diffuse (``texture_diffuse_codes``) or only the specular and roughness (``texture_spec_rough_codes``) at
+  their means;
+- ``diffuse_y_mean``, ``diffuse_y_std``: the view's linear diffuse luminance, its mean and spread over the pixels
+  (where the texture in the photo comes from);
 - per pixel, the 3x2 Jacobian J of the codes with respect to the slope (s_x, s_y) = (n_x, n_y) / n_z (autograd;
   the renderer is per pixel), its singular values s1 >= s2 and directions v1, v2. Where the flash sits at the
   camera, the photo depends on the slope only through N.L and N.H, which to first order see one component of it
@@ -17,7 +21,9 @@ quantisation):
   predicts zero along v2, over the flat map's (the best a reader of first-order shading alone can do);
 - ``codes_per_slope``: the median s1, codes per unit slope along the strong direction;
 - ``weak_flip_codes``: RMS of photo(true maps) - photo(the slope's v2 component negated at every pixel): how far apart
-  the two photos are that a reader would have to tell apart to get that component's sign.
+  the two photos are that a reader would have to tell apart to get that component's sign;
+- ``scale_probe``: the same flip over the relief with the slopes scaled by 1, 0.1 and 0.01 (five views of the last
+  real fold): where a linear picture would hold, the ratio would be near 0 at every scale.
 
 Sets: training views of the default store (the first 100 of ``svtrain eval --suite train``'s 400), its first 100
 held-out views, and every other view of the 32 real CC0 materials (control.py's two fold stores, 160 of 320 views).
@@ -72,10 +78,17 @@ def view_figures(maps_np: np.ndarray, light: tuple[float, float]) -> dict:
     s_true = n[:, :2] / n[:, 2:3].clamp(min=1e-3)
     flat = with_slopes(maps, torch.zeros_like(s_true))
     mean_others = torch.cat([flat[:, :3], flat[:, 3:].mean(dim=(2, 3), keepdim=True).expand_as(flat[:, 3:])], 1)
+    mean_diffuse = flat.clone()  # only the diffuse at its mean: which map the texture comes from
+    mean_diffuse[:, 3:6] = flat[:, 3:6].mean(dim=(2, 3), keepdim=True)
+    mean_spec_rough = flat.clone()  # only the specular and the roughness at their means
+    mean_spec_rough[:, 6:] = flat[:, 6:].mean(dim=(2, 3), keepdim=True)
     with torch.no_grad():
-        a, f, u = (codes(flash_render(m, off)) for m in (with_slopes(maps, s_true), flat, mean_others))
+        a, f, u, ud, usr = (codes(flash_render(m, off)) for m in (with_slopes(maps, s_true), flat, mean_others,
+                                                                   mean_diffuse, mean_spec_rough))
     relief = float(((a - f) ** 2).mean().sqrt())
     texture = float(((f - u) ** 2).mean().sqrt())
+    texture_diffuse = float(((f - ud) ** 2).mean().sqrt())
+    texture_spec_rough = float(((f - usr) ** 2).mean().sqrt())
     # per-pixel Jacobian d codes_c / d s (the renderer is per pixel: the gradient of the channel's sum is J's row)
     s = s_true.clone().requires_grad_(True)
     img = codes(flash_render(with_slopes(maps, s), off))
@@ -96,7 +109,9 @@ def view_figures(maps_np: np.ndarray, light: tuple[float, float]) -> dict:
     flat_err = float(((n_true - torch.tensor([0.0, 0.0, 1.0], dtype=n_true.dtype)) ** 2).mean().sqrt())
     strong_err = float(((n_true - n_strong) ** 2).mean().sqrt())
     energy = float((st ** 2).sum())
-    return {"relief_codes": relief, "texture_codes": texture, "weak_flip_codes": flip, "flat_rmse": flat_err, "strong_only_rmse": strong_err,
+    y = (maps[0, 3:6] * torch.tensor([0.2126, 0.7152, 0.0722]).reshape(3, 1, 1)).sum(0)  # linear diffuse luminance
+    return {"diffuse_y_mean": float(y.mean()), "diffuse_y_std": float(y.std()), "relief_codes": relief, "texture_codes": texture, "weak_flip_codes": flip,
+            "texture_diffuse_codes": texture_diffuse, "texture_spec_rough_codes": texture_spec_rough, "flat_rmse": flat_err, "strong_only_rmse": strong_err,
             "weak_energy": float((along[:, 1] ** 2).sum()), "energy": energy,
             "s2_over_s1": float((sv[:, 1] / sv[:, 0].clamp(min=1e-12)).median()),
             "codes_per_slope": float(sv[:, 0].median())}
@@ -111,8 +126,12 @@ def set_figures(reader: RendersReader, views: list[int]) -> dict:
     relief_views = a["flat_rmse"] > 0.01  # views with relief (flat views have no share to speak of)
     return {
         "views": len(views),
+        "diffuse_y_mean_median": round(float(np.median(a["diffuse_y_mean"])), 3),
+        "diffuse_y_std_median": round(float(np.median(a["diffuse_y_std"])), 4),
         "relief_codes_median": round(float(np.median(a["relief_codes"])), 2),
         "texture_codes_median": round(float(np.median(a["texture_codes"])), 2),
+        "texture_diffuse_codes_median": round(float(np.median(a["texture_diffuse_codes"])), 2),
+        "texture_spec_rough_codes_median": round(float(np.median(a["texture_spec_rough_codes"])), 2),
         "weak_flip_codes_median": round(float(np.median(a["weak_flip_codes"])), 3),
         "weak_flip_over_relief_median": round(float(np.median(a["weak_flip_codes"][relief_views]
                                                              / a["relief_codes"][relief_views])), 3),
@@ -126,6 +145,30 @@ def set_figures(reader: RendersReader, views: list[int]) -> dict:
             float(a["strong_only_rmse"][relief_views].mean() / a["flat_rmse"][relief_views].mean()), 3),
         "views_with_relief": int(relief_views.sum()),
     }
+
+
+def scale_probe(reader: RendersReader, views: list[int], n: int = 5, scales=(1.0, 0.1, 0.01)) -> dict:
+    """The flip's RMS over the relief's with every slope scaled by each of ``scales``, median over the first ``n`` of
+    ``views`` with relief: a linear photo would give ~0 at every scale, so where the ratio falls with the scale, the
+    weak component is seen through the photo's curvature in the slope, not its slope."""
+    got: dict[str, list[float]] = {str(k): [] for k in scales}
+    for i in views:
+        m = pack_maps(reader.maps(i))
+        n_ = m[..., 0:3] / np.linalg.norm(m[..., 0:3], axis=-1, keepdims=True)
+        if float(np.sqrt(((n_ - np.array([0, 0, 1], np.float32)) ** 2).mean())) <= 0.01:
+            continue
+        vp = reader.view_params(i)
+        for k in scales:
+            s = n_[..., :2] / np.maximum(n_[..., 2:3], 1e-3) * k
+            v = np.concatenate([s, np.ones_like(s[..., :1])], -1)
+            m2 = m.copy()
+            m2[..., 0:3] = v / np.linalg.norm(v, axis=-1, keepdims=True)
+            f = view_figures(m2, (vp.light_x, vp.light_y))
+            got[str(k)].append(f["weak_flip_codes"] / max(f["relief_codes"], 1e-9))
+        if len(got[str(scales[0])]) >= n:
+            break
+    return {"views": len(got[str(scales[0])]),
+            "flip_over_relief_median_by_slope_scale": {k: round(float(np.median(v)), 3) for k, v in got.items()}}
 
 
 def main(argv=None) -> None:
@@ -151,6 +194,7 @@ def main(argv=None) -> None:
     for k, ref in enumerate(refs):
         r = RendersReader(ref)
         res["sets"][f"reference_{k}"] = set_figures(r, list(range(0, len(r), REF_STEP)))
+    res["scale_probe"] = scale_probe(RendersReader(refs[-1]), list(range(0, len(RendersReader(refs[-1])), REF_STEP)))
     Path(a.out).write_text(json.dumps(res, indent=1) + "\n")
     for name, f in res["sets"].items():
         print(name, f)
