@@ -19,7 +19,8 @@ where it can):
    ``--compact-s``/``--paper-s`` seconds from the loss log's first row (constant learning rate, the paper's, so
    that stopping by the clock cuts no schedule short): the run is stopped with SIGINT, which checkpoints; its it/s
    is steps over its own training clock (timing.json).
-6. ``eval_*``: ``svtrain eval`` of each model on the held-out views (``--eval-limit``) and, when ``--reference``
+6. ``eval_*``: ``svtrain eval`` of each model on its own training views (``--suite train``: does it fit what it
+   saw? #39's criterion), on the held-out views (each ``--eval-limit``) and, when ``--reference``
    names an imported materials store, on its render in ``--variant`` (the real-material reference).
 
 Without a libLLVM, drjit has only its CUDA backend: the training loader's crop transform (storage.views)
@@ -231,10 +232,12 @@ def _fit(run: Run, name: str, preset: str, store: Path, work: Path, a, loader: d
     return model if model.exists() else None
 
 
-def _eval(run: Run, name: str, model: Path, work: Path, a, loader: dict, store: Path | None = None) -> None:
+def _eval(run: Run, name: str, model: Path, work: Path, a, loader: dict, store: Path | None = None,
+          suite: str | None = None) -> None:
     out = work / name
     cmd = SVTRAIN + ["eval", "--checkpoint", str(model), "--out", str(out), "--device", a.device,
-                     "--limit", str(a.eval_limit)] + (["--store", str(store)] if store else [])
+                     "--limit", str(a.eval_limit)] + (["--store", str(store)] if store else []) + (
+                         ["--suite", suite] if suite else [])
     r = run.command(cmd, env=loader["env"])
     r["metrics"] = _read_json(out / "eval_metrics.json")
     run.step(name, r)
@@ -363,6 +366,8 @@ def main(argv=None) -> int:
                      [x for kv in extra for x in ("--set", kv)])
         if model is None:
             continue
+        # its own training views first: a model that cannot fit them cannot show what it learnt (#39)
+        _eval(run, f"eval_{preset}_train", model, work, a, loader, suite="train")
         _eval(run, f"eval_{preset}_heldout", model, work, a, loader)
         if ref_renders is not None:
             _eval(run, f"eval_{preset}_reference", model, work, a, loader, ref_renders)

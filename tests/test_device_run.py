@@ -49,8 +49,8 @@ def test_the_prepared_gpu_run_writes_its_json_log_and_model(tmp_path):
         json.dumps(d["steps"].get("fit_compact"), indent=1) + "\n" + log[-3000:])
     steps = d["steps"]
     assert list(steps) == ["env", "sample", "render_warmup", "render", "compare", "reference_render", "fit_compact",
-                           "eval_compact_heldout", "eval_compact_reference", "fit_paper", "eval_paper_heldout",
-                           "eval_paper_reference"]
+                           "eval_compact_train", "eval_compact_heldout", "eval_compact_reference", "fit_paper",
+                           "eval_paper_train", "eval_paper_heldout", "eval_paper_reference"]
     assert all(s["ok"] for s in steps.values() if "ok" in s), {k: s for k, s in steps.items() if not s.get("ok")}
     assert steps["render"]["store_variant"] == "llvm_ad_rgb" and steps["render"]["views"] == 12
     assert steps["render"]["views_per_launch"] == 10  # the prepared run's default: an SVBRDF's views per launch
@@ -58,8 +58,11 @@ def test_the_prepared_gpu_run_writes_its_json_log_and_model(tmp_path):
     assert [row["max_abs_code"] for row in steps["compare"]["rows"]] == [0, 0]
     for fit in ("fit_compact", "fit_paper"):
         assert steps[fit]["stopped_by_clock"] and steps[fit]["steps"] >= 1 and steps[fit]["it_per_s"] > 0, steps[fit]
-    for ev in ("eval_compact_heldout", "eval_compact_reference", "eval_paper_heldout", "eval_paper_reference"):
+    for ev in ("eval_compact_train", "eval_compact_heldout", "eval_compact_reference", "eval_paper_train",
+               "eval_paper_heldout", "eval_paper_reference"):
         assert steps[ev]["metrics"]["model"]["rerender"] >= 0, steps[ev]
+    # the train suite evaluated the views the model trained on, not the held-out ones (#39's fit criterion)
+    assert "--suite train" in steps["eval_compact_train"]["cmd"], steps["eval_compact_train"]
     model = torch.load(out / "compact_model.pt", weights_only=False)
     assert model["step"] == steps["fit_compact"]["steps"] and model["config"]["model"]["base_width"] == 4
     assert d["paper_model"]["bytes"] > 0 and d["loader"] == {"workers": 0, "env": {}}
