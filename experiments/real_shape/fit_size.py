@@ -11,7 +11,8 @@ Evaluation (``svtrain eval``): each arm's own training views (``--suite train``,
 split (the first 200 views; the splits differ with the holdout, so these are unseen svgen views, not the same views),
 and the real reference (both folds of ``control.py``, 320 views; no arm saw a real material).
 
-    python3 experiments/real_shape/fit_size.py --work runs/rs --out-dir runs/fs --steps 3000
+    python3 experiments/real_shape/fit_size.py --work runs/rs --out-dir runs/fs --steps 3000 --arms h98 h90
+    python3 experiments/real_shape/fit_size.py --work runs/rs --out-dir runs/fs --steps 3000   # then h95, h98_more
 
 A checkpoint copied while the fits run (``cp OUT/ARM/checkpoint.pt OUT/mid_ARM/ckpt.pt``; here at step 1,600) is
 evaluated on the training views too: the middle of the fit curve.
@@ -33,9 +34,11 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from control import PARAMS, evaluate, side_by_side, table  # noqa: E402
 
-#: arm -> data.holdout (on runs/rs/train, the default library's store: 0.1 trains on 7,030 views of 796 SVBRDFs,
-#: 0.9 on 550 views, 0.98 on 120 views)
-ARMS = {"h98": 0.98, "h90": 0.9}
+#: arm -> (data.holdout, the arm whose model it starts from or None: from scratch). On runs/rs/train, the default
+#: library's store, 0.1 trains on 7,030 views of 796 SVBRDFs, 0.9 on 550 views (55 SVBRDFs), 0.95 on 280 (28), 0.98 on
+#: 120 (12). ``h98_more`` is a second cycle of h98 (its model, the same steps and schedule again): is the fit still
+#: falling at 400 passes?
+ARMS = {"h98": (0.98, None), "h90": (0.9, None), "h95": (0.95, None), "h98_more": (0.98, "h98")}
 TRAIN_VIEWS, HELDOUT_VIEWS = 100, 200
 COLUMNS = ("rerender", "normal", "diffuse", "roughness", "specular")
 
@@ -46,10 +49,12 @@ def over_best_baseline(ev: dict) -> dict:
     return {c: round(ev["model"][c] / min(ev["dataset_mean"][c], ev["input_as_diffuse"][c]), 3) for c in COLUMNS}
 
 
-def fit_cmd(a, store: Path, out: Path, holdout: float) -> list[str]:
-    return ["svtrain", "fit", "--params", PARAMS, "--store", str(store), "--out", str(out),
+def fit_cmd(a, store: Path, out: Path, arm: str) -> list[str]:
+    holdout, init = ARMS[arm]
+    return ["svtrain", "fit", "--params", PARAMS, "--store", str(store), "--out", str(out / arm),
             "--iterations", str(a.steps), "--workers", "0", "--set", f"optim.threads={a.threads}",
-            "--set", f"data.holdout={holdout}", "--set", "optim.checkpoint_minutes=5"]
+            "--set", f"data.holdout={holdout}", "--set", "optim.checkpoint_minutes=5",
+            *(["--init", str(out / init / "model.pt")] if init else [])]
 
 
 def main(argv=None) -> None:
@@ -69,19 +74,24 @@ def main(argv=None) -> None:
     if not store.is_dir() or not refs:
         raise SystemExit(f"{work} has no train/renders.zarr or fold*/ref/renders.zarr: run control.py --phase stores")
     out_dir.mkdir(parents=True, exist_ok=True)
-    side_by_side({n: fit_cmd(a, store, out_dir / n, ARMS[n]) for n in a.arms
+    waiting = [n for n in a.arms if ARMS[n][1] and not (out_dir / ARMS[n][1] / "model.pt").is_file()]
+    if waiting:
+        raise SystemExit(f"{', '.join(waiting)} start from another arm's model: fit {ARMS[waiting[0]][1]} first")
+    side_by_side({n: fit_cmd(a, store, out_dir, n) for n in a.arms
                   if not (out_dir / n / "model.pt").is_file()}, out_dir, a.threads)
     log = out_dir / "commands.log"
     res = {"question": "does the network fit its own training views' normals when it trains on fewer materials for "
                        "the same steps (from scratch, params.yaml's recipe)?",
            "steps": a.steps, "threads_per_run": a.threads,
-           "commands": {n: " ".join(fit_cmd(a, Path("STORE"), Path("OUT") / n, ARMS[n])).replace(PARAMS, "params.yaml")
+           "commands": {n: " ".join(fit_cmd(a, Path("STORE"), Path("OUT"), n)).replace(PARAMS, "params.yaml")
                         for n in a.arms}, "arms": {}}
     for n in a.arms:
         run = out_dir / n
         ev_train = evaluate(run, run / "eval_train", log, "--suite", "train", "--limit", str(TRAIN_VIEWS))
-        r = {"holdout": ARMS[n], "train_views": table(ev_train),
-             "train_views_over_best_baseline": {str(a.steps): over_best_baseline(ev_train)},
+        r = {"holdout": ARMS[n][0], "init": ARMS[n][1], "train_views": table(ev_train),
+             # keyed by the steps the model has trained in all (a second cycle: twice the steps)
+             "train_views_over_best_baseline": {str(a.steps * (2 if ARMS[n][1] else 1)):
+                                                over_best_baseline(ev_train)},
              "heldout": table(evaluate(run, run / "eval_heldout", log, "--limit", str(HELDOUT_VIEWS)))}
         mid = out_dir / f"mid_{n}" / "ckpt.pt"  # a 5-minute checkpoint copied mid-run (--mid): the curve's middle
         if mid.is_file():

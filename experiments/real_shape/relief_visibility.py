@@ -49,7 +49,6 @@ from materials.maps import pack_maps  # noqa: E402
 from storage.renders_store import RendersReader  # noqa: E402
 from train.config import DataConfig  # noqa: E402
 from train.data import open_source, split_for  # noqa: E402
-from train.evaluate import paired  # noqa: F401,E402  (the same bootstrap family as the other rounds' scripts)
 from train.render import flash_render  # noqa: E402
 
 #: views per set: the first 100 of the train suite's, the first 100 held-out views, every other view of each real fold
@@ -110,8 +109,9 @@ def view_figures(maps_np: np.ndarray, light: tuple[float, float]) -> dict:
     strong_err = float(((n_true - n_strong) ** 2).mean().sqrt())
     energy = float((st ** 2).sum())
     y = (maps[0, 3:6] * torch.tensor([0.2126, 0.7152, 0.0722]).reshape(3, 1, 1)).sum(0)  # linear diffuse luminance
-    return {"diffuse_y_mean": float(y.mean()), "diffuse_y_std": float(y.std()), "relief_codes": relief, "texture_codes": texture, "weak_flip_codes": flip,
-            "texture_diffuse_codes": texture_diffuse, "texture_spec_rough_codes": texture_spec_rough, "flat_rmse": flat_err, "strong_only_rmse": strong_err,
+    return {"diffuse_y_mean": float(y.mean()), "diffuse_y_std": float(y.std()), "relief_codes": relief,
+            "texture_codes": texture, "weak_flip_codes": flip, "texture_diffuse_codes": texture_diffuse,
+            "texture_spec_rough_codes": texture_spec_rough, "flat_rmse": flat_err, "strong_only_rmse": strong_err,
             "weak_energy": float((along[:, 1] ** 2).sum()), "energy": energy,
             "s2_over_s1": float((sv[:, 1] / sv[:, 0].clamp(min=1e-12)).median()),
             "codes_per_slope": float(sv[:, 0].median())}
