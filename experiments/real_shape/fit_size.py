@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).parent))
 
-from control import PARAMS, evaluate, side_by_side, table  # noqa: E402
+from control import COLUMNS, PARAMS, evaluate, side_by_side, table  # noqa: E402
 
 #: arm -> (data.holdout, the arm whose model it starts from or None: from scratch). On runs/rs/train, the default
 #: library's store, 0.1 trains on 7,030 views of 796 SVBRDFs, 0.9 on 550 views (55 SVBRDFs), 0.95 on 280 (28), 0.98 on
@@ -40,7 +40,6 @@ from control import PARAMS, evaluate, side_by_side, table  # noqa: E402
 #: falling at 400 passes?
 ARMS = {"h98": (0.98, None), "h90": (0.9, None), "h95": (0.95, None), "h98_more": (0.98, "h98")}
 TRAIN_VIEWS, HELDOUT_VIEWS = 100, 200
-COLUMNS = ("rerender", "normal", "diffuse", "roughness", "specular")
 
 
 def over_best_baseline(ev: dict) -> dict:
@@ -93,7 +92,7 @@ def main(argv=None) -> None:
              "train_views_over_best_baseline": {str(a.steps * (2 if ARMS[n][1] else 1)):
                                                 over_best_baseline(ev_train)},
              "heldout": table(evaluate(run, run / "eval_heldout", log, "--limit", str(HELDOUT_VIEWS)))}
-        mid = out_dir / f"mid_{n}" / "ckpt.pt"  # a 5-minute checkpoint copied mid-run (--mid): the curve's middle
+        mid = out_dir / f"mid_{n}" / "ckpt.pt"  # a 5-minute checkpoint copied mid-run by hand: the curve's middle
         if mid.is_file():
             ev_mid = evaluate(mid, mid.parent / "eval_train", log, "--suite", "train", "--limit", str(TRAIN_VIEWS))
             step = int(torch.load(mid, weights_only=False)["step"])
@@ -101,6 +100,8 @@ def main(argv=None) -> None:
                                                    **r["train_views_over_best_baseline"]}
         for i, ref in enumerate(refs):
             r[f"reference_{i}"] = table(evaluate(run, run / f"eval_ref{i}", log, "--store", str(ref)))
+        clock = json.loads((run / "timing.json").read_text())  # the training clock (train/timing.py)
+        r["train_wall_s"], r["train_cpu_s"] = round(clock["train_wall_s"]), round(clock["train_cpu_s"])
         res["arms"][n] = r
         print(n, {k: v["normal_over_flat"] for k, v in r.items() if isinstance(v, dict) and "normal_over_flat" in v},
               flush=True)

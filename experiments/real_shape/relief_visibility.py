@@ -1,6 +1,6 @@
 """How much of a material's relief does one flash photo show? (#39, round 11)
 
-Round 11's fits (``fit_size.py``) found normals the slowest map to fit even on 12 SVBRDFs seen 250 times each. This
+Round 11's fits (``fit_size.py``) found normals the slowest map to fit even on 12 SVBRDFs seen about 200 times each. This
 asks the capture itself, with no network: for each view, at its own flash offset, the torch capture renderer
 (``train.render.flash_render``, the loss's and Mitsuba's agreed scene) and the photo's 8-bit sRGB codes (the input's
 quantisation):
@@ -49,10 +49,12 @@ from materials.maps import pack_maps  # noqa: E402
 from storage.renders_store import RendersReader  # noqa: E402
 from train.config import DataConfig  # noqa: E402
 from train.data import open_source, split_for  # noqa: E402
+from train.evaluate import TRAIN_SUITE_VIEWS  # noqa: E402
+from train.heldout import subset  # noqa: E402
 from train.render import flash_render  # noqa: E402
 
 #: views per set: the first 100 of the train suite's, the first 100 held-out views, every other view of each real fold
-#: (one view of each material's lights in two; 2 CPU-s a view)
+#: (one view of each material's lights in two; the whole run takes about 2.5 minutes on one thread)
 TRAIN_VIEWS, HELDOUT_VIEWS, REF_STEP = 100, 100, 2
 
 
@@ -117,13 +119,17 @@ def view_figures(maps_np: np.ndarray, light: tuple[float, float]) -> dict:
             "codes_per_slope": float(sv[:, 0].median())}
 
 
+#: a view "has relief" when its flat map's normal RMSE exceeds this (flat views have no share to speak of)
+RELIEF_RMSE = 0.01
+
+
 def set_figures(reader: RendersReader, views: list[int]) -> dict:
     per = []
     for i in views:
         vp = reader.view_params(i)
         per.append(view_figures(pack_maps(reader.maps(i)), (vp.light_x, vp.light_y)))
     a = {k: np.array([p[k] for p in per]) for k in per[0]}
-    relief_views = a["flat_rmse"] > 0.01  # views with relief (flat views have no share to speak of)
+    relief_views = a["flat_rmse"] > RELIEF_RMSE
     return {
         "views": len(views),
         "diffuse_y_mean_median": round(float(np.median(a["diffuse_y_mean"])), 3),
@@ -155,7 +161,7 @@ def scale_probe(reader: RendersReader, views: list[int], n: int = 5, scales=(1.0
     for i in views:
         m = pack_maps(reader.maps(i))
         n_ = m[..., 0:3] / np.linalg.norm(m[..., 0:3], axis=-1, keepdims=True)
-        if float(np.sqrt(((n_ - np.array([0, 0, 1], np.float32)) ** 2).mean())) <= 0.01:
+        if float(np.sqrt(((n_ - np.array([0, 0, 1], np.float32)) ** 2).mean())) <= RELIEF_RMSE:  # as flat_rmse
             continue
         vp = reader.view_params(i)
         for k in scales:
@@ -185,7 +191,7 @@ def main(argv=None) -> None:
     src = open_source(DataConfig(store=str(store)))
     train, test = split_for(src, DataConfig(store=str(store)))
     # the train suite's 400 views spread over the training split, then its first 100 (as `--limit 100` takes them)
-    spread = train[np.linspace(0, len(train) - 1, 400).round().astype(np.int64)][:TRAIN_VIEWS]
+    spread = subset(train, TRAIN_SUITE_VIEWS)[:TRAIN_VIEWS]
     reader = RendersReader(store)
     res = {"question": "how much of a material's relief does one flash photo show, against its texture, and along "
                        "which slope directions (first order)?",
@@ -194,7 +200,8 @@ def main(argv=None) -> None:
     for k, ref in enumerate(refs):
         r = RendersReader(ref)
         res["sets"][f"reference_{k}"] = set_figures(r, list(range(0, len(r), REF_STEP)))
-    res["scale_probe"] = scale_probe(RendersReader(refs[-1]), list(range(0, len(RendersReader(refs[-1])), REF_STEP)))
+    last = RendersReader(refs[-1])
+    res["scale_probe"] = scale_probe(last, list(range(0, len(last), REF_STEP)))
     Path(a.out).write_text(json.dumps(res, indent=1) + "\n")
     for name, f in res["sets"].items():
         print(name, f)
