@@ -14,6 +14,15 @@ and the real reference (both folds of ``control.py``, 320 views; no arm saw a re
     python3 experiments/real_shape/fit_size.py --work runs/rs --out-dir runs/fs --steps 3000 --arms h98 h90
     python3 experiments/real_shape/fit_size.py --work runs/rs --out-dir runs/fs --steps 3000   # then h95, h98_more
 
+Round 12 pairs two of these arms with data arms (``DATA_ARMS``) on soft_store.py's store, which differs from the
+default store only in each SVBRDF's diffuse (half its contrast about its mean): same materials, split, views and
+seeds. Each data arm is evaluated on both stores' training views, the control store's held-out views and the real
+reference, and so is the arm it is paired with; effects are paired per view, 95 % intervals over materials.
+
+    python3 experiments/real_shape/soft_store.py --work runs/dc --control runs/rs/train/renders.zarr
+    python3 experiments/real_shape/fit_size.py --work runs/rs --out-dir runs/fs --steps 3000 --arms h90 h90_soft \
+        --arm-store h90_soft=runs/dc/renders.zarr --out experiments/real_shape/results/fit_soft.json   # and h98
+
 A checkpoint copied while the fits run (``cp OUT/ARM/checkpoint.pt OUT/mid_ARM/ckpt.pt``; here at step 1,600) is
 evaluated on the training views too: the middle of the fit curve.
 
@@ -32,13 +41,19 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).parent))
 
-from control import COLUMNS, PARAMS, evaluate, side_by_side, table  # noqa: E402
+from control import COLUMNS, PARAMS, evaluate, pooled_effect, side_by_side, table  # noqa: E402
 
 #: arm -> (data.holdout, the arm whose model it starts from or None: from scratch). On runs/rs/train, the default
 #: library's store, 0.1 trains on 7,030 views of 796 SVBRDFs, 0.9 on 550 views (55 SVBRDFs), 0.95 on 280 (28), 0.98 on
 #: 120 (12). ``h98_more`` is a second cycle of h98 (its model, the same steps and schedule again): is the fit still
 #: falling at 400 passes?
-ARMS = {"h98": (0.98, None), "h90": (0.9, None), "h95": (0.95, None), "h98_more": (0.98, "h98")}
+ARMS = {"h98": (0.98, None), "h90": (0.9, None), "h95": (0.95, None), "h98_more": (0.98, "h98"),
+        "h90_soft": (0.9, None), "h98_soft": (0.98, None)}
+#: data arms (round 12): arm -> (the arm it is paired with, what its store changes). They train on ``--arm-store
+#: NAME=STORE``, a store with the control's materials, split and views; both models are evaluated on both stores'
+#: training views and on the control store's held-out views.
+SOFT = "soft_store.py's store: every SVBRDF's diffuse at half its contrast about its mean, all else the control store's"
+DATA_ARMS = {"h90_soft": ("h90", SOFT), "h98_soft": ("h98", SOFT)}
 TRAIN_VIEWS, HELDOUT_VIEWS = 100, 200
 
 
@@ -62,9 +77,22 @@ def main(argv=None) -> None:
     ap.add_argument("--out-dir", required=True, help="where the runs go")
     ap.add_argument("--steps", type=int, required=True)
     ap.add_argument("--threads", type=int, default=1, help="torch threads per run (every arm the same)")
-    ap.add_argument("--arms", nargs="*", default=list(ARMS), help=f"arms: {', '.join(ARMS)}")
+    ap.add_argument("--arms", nargs="*", default=[n for n in ARMS if n not in DATA_ARMS],
+                    help=f"arms (default: round 11's): {', '.join(ARMS)}")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "fit_size.json"))
+    ap.add_argument("--arm-store", action="append", default=[], metavar="NAME=STORE",
+                    help=f"the training store of a data arm ({', '.join(DATA_ARMS)})")
     a = ap.parse_args(argv)
+    items, a.arm_store = a.arm_store, {}
+    for item in items:
+        name, _, path = item.partition("=")
+        if name not in DATA_ARMS or not Path(path).is_dir():
+            raise SystemExit(f"--arm-store {item}: want NAME=STORE with NAME one of {', '.join(DATA_ARMS)} and an "
+                             "existing store")
+        a.arm_store[name] = Path(path).resolve()
+    missing = [n for n in a.arms if n in DATA_ARMS and n not in a.arm_store]
+    if missing:
+        raise SystemExit(f"data arms need --arm-store NAME=STORE: {', '.join(missing)}")
     unknown = [x for x in a.arms if x not in ARMS]
     if unknown:
         raise SystemExit(f"--arms: unknown {unknown}; choose from {', '.join(ARMS)}")
@@ -76,7 +104,7 @@ def main(argv=None) -> None:
     waiting = [n for n in a.arms if ARMS[n][1] and not (out_dir / ARMS[n][1] / "model.pt").is_file()]
     if waiting:
         raise SystemExit(f"{', '.join(waiting)} start from another arm's model: fit {ARMS[waiting[0]][1]} first")
-    side_by_side({n: fit_cmd(a, store, out_dir, n) for n in a.arms
+    side_by_side({n: fit_cmd(a, a.arm_store.get(n, store), out_dir, n) for n in a.arms
                   if not (out_dir / n / "model.pt").is_file()}, out_dir, a.threads)
     log = out_dir / "commands.log"
     res = {"question": "does the network fit its own training views' normals when it trains on fewer materials for "
@@ -84,6 +112,14 @@ def main(argv=None) -> None:
            "steps": a.steps, "threads_per_run": a.threads,
            "commands": {n: " ".join(fit_cmd(a, Path("STORE"), Path("OUT"), n)).replace(PARAMS, "params.yaml")
                         for n in a.arms}, "arms": {}}
+    if any(n in DATA_ARMS for n in a.arms):
+        res["question"] = ("round 12: does a diffuse texture at half its contrast (real photos hold 2.3-3.2x less "
+                           "texture than svgen's, relief_visibility.py) let the network fit and read normals sooner? "
+                           "Paired arms from scratch, same materials, views, seed and steps")
+        for n in a.arms:
+            made = a.arm_store[n].parent / "soft.json" if n in DATA_ARMS else None  # soft_store.py's record
+            if made is not None and made.is_file():
+                res.setdefault("arm_stores", {})[n] = json.loads(made.read_text())
     for n in a.arms:
         run = out_dir / n
         ev_train = evaluate(run, run / "eval_train", log, "--suite", "train", "--limit", str(TRAIN_VIEWS))
@@ -100,6 +136,25 @@ def main(argv=None) -> None:
                                                    **r["train_views_over_best_baseline"]}
         for i, ref in enumerate(refs):
             r[f"reference_{i}"] = table(evaluate(run, run / f"eval_ref{i}", log, "--store", str(ref)))
+        if n in DATA_ARMS:  # both models on both stores' views (the same materials, split and view indices)
+            base, own = out_dir / DATA_ARMS[n][0], a.arm_store[n]
+            r["paired_with"], r["what"] = DATA_ARMS[n]
+            tr, ho = ("--suite", "train", "--limit", str(TRAIN_VIEWS)), ("--suite", "heldout", "--limit",
+                                                                          str(HELDOUT_VIEWS))
+            r["train_views_control_store"] = table(evaluate(run, run / "eval_train_control_store", log, *tr,
+                                                            "--store", str(store)))
+            r["heldout_control_store"] = table(evaluate(run, run / "eval_heldout_control_store", log, *ho,
+                                                        "--store", str(store)))
+            r["base_on_arm_store"] = {
+                "train_views": table(evaluate(base, base / f"eval_train_{n}", log, *tr, "--store", str(own))),
+                "heldout": table(evaluate(base, base / f"eval_heldout_{n}", log, *ho, "--store", str(own)))}
+            # positive = the arm better, 95 % intervals over materials (control.pooled_effect)
+            r["effect"] = {
+                "train_views_own_store": pooled_effect([(base / "eval_train", run / "eval_train")]),
+                "train_views_control_store": pooled_effect([(base / "eval_train", run / "eval_train_control_store")]),
+                "train_views_arm_store": pooled_effect([(base / f"eval_train_{n}", run / "eval_train")]),
+                "heldout_control_store": pooled_effect([(base / "eval_heldout", run / "eval_heldout_control_store")]),
+                "reference": pooled_effect([(base / f"eval_ref{i}", run / f"eval_ref{i}") for i in range(len(refs))])}
         clock = json.loads((run / "timing.json").read_text())  # the training clock (train/timing.py)
         r["train_wall_s"], r["train_cpu_s"] = round(clock["train_wall_s"]), round(clock["train_cpu_s"])
         res["arms"][n] = r

@@ -181,11 +181,13 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--work", default=str(ROOT / "runs" / "rs"), help="control.py's scratch folder")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "relief_visibility.json"))
+    ap.add_argument("--store", default=None, help="only the svgen sets, of this renders store (round 12: the soft "
+                                                  "arm's, soft_store.py) in place of WORK's; no real sets")
     a = ap.parse_args(argv)
     work = Path(a.work).resolve()
-    store = work / "train" / "renders.zarr"
-    refs = sorted(work.glob("fold*/ref/renders.zarr"))
-    if not store.is_dir() or not refs:
+    store = Path(a.store).resolve() if a.store else work / "train" / "renders.zarr"
+    refs = [] if a.store else sorted(work.glob("fold*/ref/renders.zarr"))
+    if not store.is_dir() or not (refs or a.store):
         raise SystemExit(f"{work} has no train/renders.zarr or fold*/ref/renders.zarr: run control.py --phase stores")
     torch.set_num_threads(1)
     src = open_source(DataConfig(store=str(store)))
@@ -200,8 +202,9 @@ def main(argv=None) -> None:
     for k, ref in enumerate(refs):
         r = RendersReader(ref)
         res["sets"][f"reference_{k}"] = set_figures(r, list(range(0, len(r), REF_STEP)))
-    last = RendersReader(refs[-1])
-    res["scale_probe"] = scale_probe(last, list(range(0, len(last), REF_STEP)))
+    if refs:
+        last = RendersReader(refs[-1])
+        res["scale_probe"] = scale_probe(last, list(range(0, len(last), REF_STEP)))
     Path(a.out).write_text(json.dumps(res, indent=1) + "\n")
     for name, f in res["sets"].items():
         print(name, f)
