@@ -92,6 +92,18 @@ def build_stores(a, work: Path, log: Path) -> list[list[str]]:
     return folds
 
 
+def arm_stores(items: list[str], known) -> dict[str, Path]:
+    """``--arm-store NAME=STORE`` items -> {name: store}, NAME one of ``known`` (the data arms) and STORE existing."""
+    out = {}
+    for item in items:
+        name, _, path = item.partition("=")
+        if name not in known or not Path(path).is_dir():
+            raise SystemExit(f"--arm-store {item}: want NAME=STORE with NAME one of {', '.join(known)} and an "
+                             f"existing store")
+        out[name] = Path(path).resolve()
+    return out
+
+
 def store_materials(store: Path) -> list[tuple[str, ...]]:
     from storage.renders_store import RendersReader
 

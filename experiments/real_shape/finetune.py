@@ -37,7 +37,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).parent))
 
-from control import COLUMNS, PARAMS, evaluate, pooled_effect, side_by_side, table  # noqa: E402
+from control import COLUMNS, PARAMS, arm_stores, evaluate, pooled_effect, side_by_side, table  # noqa: E402
 
 #: arm -> the `svtrain fit` arguments it adds to the control's, and what it tests.
 ARMS = {
@@ -120,17 +120,6 @@ def fit_arms(a, store: Path, out_dir: Path, arms: list[str]) -> None:
                   if not (out_dir / n / "model.pt").is_file()}, out_dir, a.threads)
 
 
-def arm_stores(items: list[str]) -> dict[str, Path]:
-    out = {}
-    for item in items:
-        name, _, path = item.partition("=")
-        if name not in DATA_ARMS or not Path(path).is_dir():
-            raise SystemExit(f"--arm-store {item}: want NAME=STORE with NAME one of {', '.join(DATA_ARMS)} and an "
-                             f"existing store")
-        out[name] = Path(path).resolve()
-    return out
-
-
 def sets_of(run: str, out: Path, refs: list[Path], log: Path, store: Path) -> dict:
     """The figures of one model (a run folder or "bundled") on every evaluation set; ``out`` holds its evals."""
     r = {"train_views": table(evaluate(run, out / "eval_train", log, "--suite", "train", "--store", str(store),
@@ -166,7 +155,7 @@ def main(argv=None) -> None:
     ap.add_argument("--arm-store", action="append", default=[], metavar="NAME=STORE",
                     help=f"the training store of a data arm ({', '.join(DATA_ARMS)})")
     a = ap.parse_args(argv)
-    a.arm_store = arm_stores(a.arm_store)
+    a.arm_store = arm_stores(a.arm_store, DATA_ARMS)
     missing = [n for n in a.arms if n in DATA_ARMS and n not in a.arm_store]
     if missing:
         raise SystemExit(f"data arms need --arm-store NAME=STORE: {', '.join(missing)}")

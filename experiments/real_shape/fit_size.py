@@ -41,7 +41,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).parent))
 
-from control import COLUMNS, PARAMS, evaluate, pooled_effect, side_by_side, table  # noqa: E402
+from control import COLUMNS, PARAMS, arm_stores, evaluate, pooled_effect, side_by_side, table  # noqa: E402
 
 #: arm -> (data.holdout, the arm whose model it starts from or None: from scratch). On runs/rs/train, the default
 #: library's store, 0.1 trains on 7,030 views of 796 SVBRDFs, 0.9 on 550 views (55 SVBRDFs), 0.95 on 280 (28), 0.98 on
@@ -83,13 +83,7 @@ def main(argv=None) -> None:
     ap.add_argument("--arm-store", action="append", default=[], metavar="NAME=STORE",
                     help=f"the training store of a data arm ({', '.join(DATA_ARMS)})")
     a = ap.parse_args(argv)
-    items, a.arm_store = a.arm_store, {}
-    for item in items:
-        name, _, path = item.partition("=")
-        if name not in DATA_ARMS or not Path(path).is_dir():
-            raise SystemExit(f"--arm-store {item}: want NAME=STORE with NAME one of {', '.join(DATA_ARMS)} and an "
-                             "existing store")
-        a.arm_store[name] = Path(path).resolve()
+    a.arm_store = arm_stores(a.arm_store, DATA_ARMS)
     missing = [n for n in a.arms if n in DATA_ARMS and n not in a.arm_store]
     if missing:
         raise SystemExit(f"data arms need --arm-store NAME=STORE: {', '.join(missing)}")
