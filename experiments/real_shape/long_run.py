@@ -14,7 +14,8 @@ training views, 200 held-out views and the 32 real materials, and adds it to the
 ``results/long_run.json``: normal over flat, and every column, by step.
 
     python3 experiments/real_shape/long_run.py --work runs/rs --out-dir runs/long --phase fit    # every sitting
-    python3 experiments/real_shape/long_run.py --work runs/rs --out-dir runs/long --phase eval   # 2 min quiet, 15 beside the fit
+    python3 experiments/real_shape/long_run.py --work runs/rs --out-dir runs/long --phase eval
+(the eval: about 2 minutes quiet, 15 beside the two-thread fit)
 """
 from __future__ import annotations
 
