@@ -94,9 +94,9 @@ DATA_ARMS = {
                  "with sample.grey_specular=1: every preset variant's dielectric "
                  "pixels (specular luminance below 0.1) share one grey F0, the variant's mean; metal pixels keep "
                  "theirs, as real libraries' dielectrics have one grey F0"),
-    "soft": ([], "round 12 (soft_store.py's store): every SVBRDF's diffuse at half its contrast about its own mean, all "
-                 "else the control's store: the texture over the relief in the photo brought to the real reference's "
-                 "(relief_visibility.py)"),
+    "soft": ([], "round 12 (soft_store.py's store): every SVBRDF's diffuse at half its contrast about its own "
+                 "mean, all else the control's store: the texture over the relief in the photo brought to the real "
+                 "reference's (relief_visibility.py)"),
 }
 ARMS.update(DATA_ARMS)
 #: arms also paired with another arm on the same store (what the one added change does on top of it)
