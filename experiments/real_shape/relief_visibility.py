@@ -1,7 +1,7 @@
 """How much of a material's relief does one flash photo show? (#39, round 11)
 
-Round 11's fits (``fit_size.py``) found normals the slowest map to fit even on 12 SVBRDFs seen about 200 times each. This
-asks the capture itself, with no network: for each view, at its own flash offset, the torch capture renderer
+Round 11's fits (``fit_size.py``) found normals the slowest map to fit even on 12 SVBRDFs seen about 200 times
+each. This asks the capture itself, with no network: for each view, at its own flash offset, the torch capture renderer
 (``train.render.flash_render``, the loss's and Mitsuba's agreed scene) and the photo's 8-bit sRGB codes (the input's
 quantisation):
 
@@ -187,6 +187,8 @@ def main(argv=None) -> None:
     work = Path(a.work).resolve()
     store = Path(a.store).resolve() if a.store else work / "train" / "renders.zarr"
     refs = [] if a.store else sorted(work.glob("fold*/ref/renders.zarr"))
+    if a.store and not store.is_dir():
+        raise SystemExit(f"--store {a.store}: no such renders store")
     if not store.is_dir() or not (refs or a.store):
         raise SystemExit(f"{work} has no train/renders.zarr or fold*/ref/renders.zarr: run control.py --phase stores")
     torch.set_num_threads(1)

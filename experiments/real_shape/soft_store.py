@@ -15,7 +15,8 @@ pipeline's code (and every locked stage): this stays an experiment until it wins
     python3 experiments/real_shape/soft_store.py --work runs/dc --control runs/rs/train/renders.zarr
 
 Writes WORK/{variants,blends}.zarr (the stages'), WORK/{variants,blends}_soft.zarr, WORK/renders.zarr and
-WORK/soft.json (what was changed, and the check that only the diffuse differs from the control's store).
+WORK/soft.json (what was changed, and the check that only the diffuse differs from the control's store);
+the stages' output goes to WORK/build.log.
 """
 from __future__ import annotations
 
@@ -24,7 +25,6 @@ import hashlib
 import json
 import os
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -32,10 +32,11 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).parent))
 
+from control import PARAMS, sh  # noqa: E402
 from storage.local import MANIFEST, _atomic_write, _chunk_key, encode_shard, open_store, verify_store  # noqa: E402
 
-PARAMS = str(ROOT / "params.yaml")
 #: arrays of the renders store that must equal the control's byte for byte (everything but the diffuse and the
 #: images rendered from it)
 SAME = ("normal", "roughness", "specular", "view", "source_seed", "preset")
@@ -79,12 +80,6 @@ def soft_copy(src: Path, dst: Path, k: float) -> None:
     os.replace(tmp, dst)
 
 
-def sh(cmd: list[str]) -> None:
-    print("$", " ".join(cmd), flush=True)
-    if subprocess.run(cmd, env={**os.environ, "SVGEN_NO_PROGRESS": "1"}).returncode:
-        raise SystemExit(f"{' '.join(cmd)} failed")
-
-
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--work", required=True, help="scratch folder for the stores")
@@ -93,16 +88,17 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
     work = Path(a.work).resolve()
     work.mkdir(parents=True, exist_ok=True)
+    log = work / "build.log"  # the stages' output (control.sh)
     v, b = work / "variants.zarr", work / "blends.zarr"
     vs, bs, r = work / "variants_soft.zarr", work / "blends_soft.zarr", work / "renders.zarr"
     if not v.is_dir():
-        sh(["svgen", "sample", str(v), "--params", PARAMS])
+        sh(["svgen", "sample", str(v), "--params", PARAMS], log)
     if not b.is_dir():
-        sh(["svgen", "blend", str(v), str(b), "--params", PARAMS])
+        sh(["svgen", "blend", str(v), str(b), "--params", PARAMS], log)
     soft_copy(v, vs, a.k)
     soft_copy(b, bs, a.k)
     if not r.is_dir():
-        sh(["svgen", "render", str(vs), str(bs), str(r), "--params", PARAMS])
+        sh(["svgen", "render", str(vs), str(bs), str(r), "--params", PARAMS], log)
     ctl, arm = open_store(a.control, "renders"), open_store(r, "renders")
     same = {name: bool(np.array_equal(ctl[name][:], arm[name][:])) for name in SAME}
     if not all(same.values()):
