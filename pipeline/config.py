@@ -134,6 +134,10 @@ class BlendConfig(StageConfig):
     """Mask mode: a different mask per map (normal, diffuse, specular, roughness), decorrelating the maps."""
     mask_scale: float = Field(4.0, ge=0.5, le=64)
     """Mask mode: features per tile of the mask noise (larger: finer patches)."""
+    maps: Literal["recipe", "stored"] = "recipe"
+    """recipe: store each blend's parents, weight and mask seeds, and mix its maps from the variants store when
+    they are read (render, gallery, stats: the same codes, no map bytes; keep the variants store beside it);
+    stored: store the mixed maps too (a self-contained store, about 1 MB per 288² blend)."""
     chunk: int = Field(64, ge=1)
     """Samples per task: one dask task writes one zarr shard per array (64 like render.chunk: docs/CODECS.md)."""
 

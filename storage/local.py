@@ -68,8 +68,11 @@ from .objstore import is_object_url, local_path, normalize_url
 #: render bytes, version 3's layout (#42: a point flash rendered by the plane's own intersection, no shadow ray; about
 #: 2 8-bit codes per million differ from version 3's ``direct``). Readers read 2 to 4: the layout lives in each
 #: array's zarr.json, the manifest lists one object per task either way, and a version-3 renders store's images
-#: still agree with its own maps (docs/DATA.md). A newer version is refused in one line.
-SCHEMA_VERSION = 4
+#: still agree with its own maps (docs/DATA.md); 5: a blends store is a recipe store by default (no maps: the
+#: parents, weights and mask seeds, mixed on read, storage/recipe.py); other kinds keep version 4's bytes. Readers
+#: read 2 to 5 (a blends store with maps, of any version, is read as it always was). A newer version is refused in
+#: one line.
+SCHEMA_VERSION = 5
 #: per-sample arrays smaller than this get one inner chunk per shard (see :func:`array_layout`)
 SMALL_SAMPLE_BYTES = 4096
 MANIFEST = "svgen_manifest.json"

@@ -12,9 +12,14 @@ Layout (zarr v3 group, N samples of S x S maps, chunked along the sample axis):
 | preset     | (N, 2)        | int32  | index into attrs["presets"]; blends: both parents'; variants: -1 2nd |
 | params     | (N, P)        | float32| variants: exposed parameters in the preset's table order, NaN-padded (none in an imported store) |
 | parents    | (N, 2)        | int64  | blends only: variant indices in the source store                  |
-| alpha      | (N,)          | float32| blends only: mean weight of the first parent                      |
+| alpha      | (N,)          | float32| blends only: mean weight of the first parent (recipe store: float64, exactly as mixed) |
+| mask_seed  | (N, 4)        | uint64 | recipe blends only: mask seeds of normal, diffuse, specular, roughness |
 | category   | (N,)          | int16  | stress only: index into attrs["categories"]                       |
 | light_radius | (N, 2)      | float32| stress only: light offset radius range of the sample's views      |
+
+A recipe blends store (`svgen blend`'s default since format version 5, :mod:`storage.recipe`) holds no map
+arrays: :class:`SVBRDFStore` mixes each blend's maps from its source variants store on read, to the codes a
+stored-maps blends store holds.
 
 16-bit: quantisation error 7.6e-6, far below what a render or the loss can see,
 while 8-bit linear albedo would band in dark colours.
@@ -27,6 +32,7 @@ from materials.maps import MAP_CHANNELS, MAP_NAMES, SVBRDF, encode_normal, norma
 
 from svcore.errors import StoreError
 
+from .recipe import RecipeMaps, is_recipe
 from .store import ArraySpec, ChunkCache, open_store, read_region
 
 KINDS = ("variants", "blends", "stress")
@@ -70,7 +76,7 @@ def _index(long_name: str, into: str | None = None, **kw) -> dict:
     return a
 
 
-def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpec]:
+def array_specs(kind: str, size: int, max_params: int = 0, recipe: bool = False) -> dict[str, ArraySpec]:
     """ArraySpecs of a variants, blends or stress store (the table above) with maps at ``size``².
 
     Args:
@@ -78,6 +84,8 @@ def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpe
         size: map resolution.
         max_params: variants only: columns of ``params`` (the largest exposed-parameter count of its presets);
             0: no ``params`` array (an imported store, `svgen import`: its materials have no parameters).
+        recipe: blends only: a recipe store (:mod:`storage.recipe`): no maps, each blend's exact ``alpha``
+            (float64) and its four ``mask_seed``, from which a reader mixes the maps.
     """
     seed = {"variants": "derived variant seed", "blends": "derived blend seed", "stress": "derived sample seed"}
     seed_attrs = {k: _index(v, comment="svcore.seeds.derive_seed of the stage's master seed and the sample index")
@@ -114,7 +122,23 @@ def array_specs(kind: str, size: int, max_params: int = 0) -> dict[str, ArraySpe
         raise ValueError(f"unknown SVBRDF store kind {kind!r}; known: {', '.join(per_kind)}")
     if kind == "variants" and max_params == 0:
         del per_kind["variants"]["params"]
+    if recipe:
+        if kind != "blends":
+            raise ValueError(f"only a blends store can be a recipe store, not {kind!r}")
+        return {**per_kind["blends"], **RECIPE_SPECS}
     return {**map_specs(size), **per_kind[kind]}
+
+
+#: the arrays a recipe blends store adds to (or changes in) a blends store's: the weight exactly as the stage used
+#: it (float64: the mix computes 1 - alpha in double precision, so a float32 copy would change stored codes), and
+#: the mask seeds (mask mode; drawn in scalar mode too, so the stream is the same in both).
+RECIPE_SPECS = {
+    "alpha": ArraySpec((), "float64", "weight of parent a, exactly as mixed (mask mode: the masks' expected mean)",
+                       attrs={"long_name": "weight of parent a (mask mode: the masks' expected mean)", "units": "1"}),
+    "mask_seed": ArraySpec((4,), "uint64", "seeds of the masks of normal, diffuse, specular, roughness (mask mode)",
+                           dims=("map",), attrs={"long_name": "mask seed per map (normal, diffuse, specular, "
+                                                 "roughness); mask mode only, the first for all with one mask"}),
+}
 
 
 def encode_maps(m: SVBRDF, out: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
@@ -174,11 +198,13 @@ class SVBRDFStore:
         self.attrs = dict(self.group.attrs)
         self.kind = self.attrs["svgen"]["kind"]
         self.presets: list[str] = list(self.attrs.get("presets", []))
-        self.size = int(self.group["diffuse"].shape[1])
+        #: a recipe blends store's mixer (storage.recipe): no maps stored, each blend mixed from its parents on read
+        self.recipe = RecipeMaps(self.group, path) if is_recipe(self.attrs) else None
+        self.size = self.recipe.size if self.recipe else int(self.group["diffuse"].shape[1])
         self._cache = ChunkCache(self.group, self.CACHE_BYTES if cache_bytes is None else cache_bytes, whole_shards)
 
     def __len__(self) -> int:
-        return int(self.group["diffuse"].shape[0])
+        return int(self.group["seed" if self.recipe else "diffuse"].shape[0])
 
     def maps(self, i: int) -> SVBRDF:
         """Maps of sample ``i`` (float32, linear).
@@ -190,11 +216,20 @@ class SVBRDFStore:
 
     def codes(self, i: int) -> dict[str, np.ndarray]:
         """The stored uint16 codes of sample ``i``'s maps (map name -> (S, S, C)), not decoded (through the cache)."""
+        if self.recipe:
+            return {k: v[0] for k, v in self.recipe.codes_range(i, i + 1).items()}
         return {k: self._cache.sample(k, i) for k in MAP_NAMES}
+
+    def codes_range(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """The uint16 codes of samples [start, stop) (map name -> (n, S, S, C)), one read per array; a recipe
+        blends store's mixed as a stored-maps store would hold them."""
+        if self.recipe:
+            return self.recipe.codes_range(start, stop)
+        return {k: read_region(self.group, k, start, stop) for k in MAP_NAMES}
 
     def maps_range(self, start: int, stop: int) -> list[SVBRDF]:
         """Maps of samples [start, stop) with one read per array (fast for whole chunks)."""
-        raw = {k: read_region(self.group, k, start, stop) for k in MAP_NAMES}
+        raw = self.codes_range(start, stop)
         return [decode_maps({k: raw[k][j] for k in MAP_NAMES}) for j in range(stop - start)]
 
     def preset_table(self) -> np.ndarray:
@@ -273,7 +308,7 @@ class SVBRDFInputs:
         parts = []
         for k, a, b in self.segments(start, stop):
             g = self.stores[k].group
-            d = {m: read_region(g, m, a, b) for m in MAP_NAMES}
+            d = self.stores[k].codes_range(a, b)
             d["seed"] = read_region(g, "seed", a, b).astype(np.uint64)
             d["input"] = np.full(b - a, k, np.int16)
             d["index"] = np.arange(a, b, dtype=np.int64)

@@ -11,7 +11,7 @@ from ..config import BlendConfig
 
 @config_command(BlendConfig, {"count": "--count", "seed": "--seed", "alpha_low": "--alpha-low",
                               "alpha_high": "--alpha-high", "mode": "--mode", "mask_per_map": "--mask-per-map/--same-mask",
-                              "mask_scale": "--mask-scale", "chunk": "--chunk"})
+                              "mask_scale": "--mask-scale", "maps": "--maps", "chunk": "--chunk"})
 @click.argument("variants", type=click.Path(), required=False)
 @click.argument("out", type=click.Path(), required=False)
 @parallel_options
