@@ -202,6 +202,14 @@ def render_card(group) -> str:
         units = f" [{a['units']}]" if "units" in a else ""
         out.append(f"| `{name}` | {', '.join(dims)} | {tuple(shape)} | {dtype} | {_decode(a)} | "
                    f"{a.get('long_name', '')}{units} |")
+    if kind == "blends" and "recipe" in attrs:  # storage.recipe (storage imports no pipeline: the text is here)
+        src = (attrs.get("inputs") or [{}])[0]
+        out += ["", f"**A recipe store: no maps are stored.** Each blend's maps are mixed on read from the variants "
+                    f"store recorded as `{src.get('path', '?')}` (relative to this store's folder; config hash "
+                    f"`{src.get('config_hash', '?')}`), from the blend's `parents`, `alpha` and `mask_seed` under the "
+                    f"rule `{attrs.get('blend_rule', '')}` ({attrs['recipe'].get('mode')} mode). svgen's readers "
+                    "and `storage.dataset.open_dataset` mix them; plain `xr.open_zarr` shows the recipe only. "
+                    "Keep the variants store beside this one."]
     if kind == "renders" and "view" in group:
         va = dict(group["view"].attrs)
         out += ["", "View parameters (`view` array, last axis in this order):", "",

@@ -23,6 +23,7 @@ import os
 import numpy as np
 
 from .labels import LABELS, label_array
+from .recipe import is_recipe
 
 
 def _netcdf_attr(v):
@@ -58,6 +59,8 @@ def open_dataset(path: str | os.PathLike, storage_options: dict | None = None):
     shard = int(dict(g.attrs)["svgen"]["chunk"])
     kw = {"storage_options": storage_options} if storage_options else {}
     ds = xr.open_zarr(str(path), chunks={"sample": shard}, **kw)
+    if is_recipe(dict(g.attrs)):  # no stored maps: mixed from the source variants store, lazily, shard by shard
+        ds = ds.assign(_recipe_maps(path, shard))
     for name in list(ds.data_vars):
         var = ds[name]
         if "scale_factor" in var.encoding and var.dtype == np.float64:
@@ -78,3 +81,38 @@ def open_dataset(path: str | os.PathLike, storage_options: dict | None = None):
     for name in ds.variables:
         ds[name].attrs = {k: _netcdf_attr(v) for k, v in ds[name].attrs.items()}
     return ds
+
+
+def _recipe_maps(path, shard: int) -> dict:
+    """The four maps of a recipe blends store (:mod:`storage.recipe`) as lazy float32 variables, one dask task
+    per shard mixing its blends, decoded from the codes a stored-maps store holds, with its CF encoding (so
+    ``to_netcdf`` writes the codes) and the same attributes."""
+    import dask
+    import dask.array as da
+    import xarray as xr
+
+    from materials.maps import MAP_NAMES, MAP_SLICES, N_CHANNELS
+
+    from .svbrdf_store import SVBRDFStore, map_specs
+
+    st = SVBRDFStore(path, "blends")  # here, not in the tasks only: a missing source fails in one line now
+    n, size = len(st), st.size
+
+    def packed(a: int, b: int) -> np.ndarray:  # (b - a, S, S, 10) uint16: each task its own reader (no shared cache)
+        codes = SVBRDFStore(path, "blends").codes_range(a, b)
+        return np.concatenate([codes[k] for k in MAP_NAMES], axis=-1)
+
+    blocks = [da.from_delayed(dask.delayed(packed)(a, min(n, a + shard)), (min(n, a + shard) - a, size, size,
+                                                                            N_CHANNELS), np.uint16)
+              for a in range(0, n, shard)]
+    codes = da.concatenate(blocks) if blocks else da.zeros((0, size, size, N_CHANNELS), np.uint16)
+    out = {}
+    for k, spec in map_specs(size).items():
+        attrs = spec.array_attrs()
+        sf, ao = attrs.pop("scale_factor"), attrs.pop("add_offset")
+        # as xarray decodes a stored map (in float64, code * scale_factor + add_offset), then float32 as above
+        v = xr.DataArray((codes[..., MAP_SLICES[k]].astype(np.float64) * sf + ao).astype(np.float32),
+                         dims=spec.dimension_names(k), attrs=attrs)
+        v.encoding = {"dtype": np.dtype(spec.dtype), "scale_factor": sf, "add_offset": ao}
+        out[k] = v
+    return out

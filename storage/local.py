@@ -68,11 +68,13 @@ from .objstore import is_object_url, local_path, normalize_url
 #: render bytes, version 3's layout (#42: a point flash rendered by the plane's own intersection, no shadow ray; about
 #: 2 8-bit codes per million differ from version 3's ``direct``). Readers read 2 to 4: the layout lives in each
 #: array's zarr.json, the manifest lists one object per task either way, and a version-3 renders store's images
-#: still agree with its own maps (docs/DATA.md); 5: a blends store is a recipe store by default (no maps: the
-#: parents, weights and mask seeds, mixed on read, storage/recipe.py); other kinds keep version 4's bytes. Readers
-#: read 2 to 5 (a blends store with maps, of any version, is read as it always was). A newer version is refused in
-#: one line.
+#: still agree with its own maps (docs/DATA.md); 5: the recipe blends store (no maps: the parents, weights and mask
+#: seeds, mixed on read, storage/recipe.py), `svgen blend`'s default. Only a recipe store is written as version 5:
+#: every other store's format is version 4's, and it records 4, so an older svgen still reads it. Readers read 2 to
+#: 5 (a blends store with maps, of any version, is read as it always was). A newer version is refused in one line.
 SCHEMA_VERSION = 5
+#: the version a store whose format did not change in version 5 is written as (:func:`written_schema`)
+UNCHANGED_SCHEMA = 4
 #: per-sample arrays smaller than this get one inner chunk per shard (see :func:`array_layout`)
 SMALL_SAMPLE_BYTES = 4096
 MANIFEST = "svgen_manifest.json"
@@ -250,7 +252,7 @@ def creation_attrs(kind: str, hash_: str, n: int, chunk: int, arrays: dict[str, 
     versions = _store_versions(code_of)
     return {
         "svgen": {
-            "kind": kind, "schema_version": SCHEMA_VERSION, "complete": False, "config_hash": hash_,
+            "kind": kind, "schema_version": written_schema(kind, arrays), "complete": False, "config_hash": hash_,
             "n": n, "chunk": chunk,
             "arrays": {k: {"shape": list(v.shape), "dtype": v.dtype, "encoding": v.encoding, "space": v.space}
                        for k, v in arrays.items()},
@@ -459,6 +461,12 @@ class StoreWriter:
         os.remove(self.lockfile)
         self.__exit__()
         return self.final
+
+
+def written_schema(kind: str, arrays: dict) -> int:
+    """The format version a new store of ``kind`` with ``arrays`` records: :data:`SCHEMA_VERSION` for a recipe
+    blends store (a blends store with no maps, the format version 5 made), :data:`UNCHANGED_SCHEMA` otherwise."""
+    return SCHEMA_VERSION if kind == "blends" and "diffuse" not in arrays else UNCHANGED_SCHEMA
 
 
 def finished_schema(svgen: dict) -> int:

@@ -43,8 +43,8 @@ def test_blend_beyond_the_free_disk_is_refused_in_one_line_and_writes_nothing(va
     assert n * per / 64 < bounds.free_disk(tmp_path)  # the best-case floor alone would have let it start
     env = {**os.environ, "PYTHONPATH": str(ROOT), "SVGEN_NO_PROGRESS": "1"}
     r = subprocess.run([sys.executable, "-c", "from pipeline.cli import main; main()", "blend", str(variants),
-                        str(out), "--count", str(n), "--workers", "0"], capture_output=True, text=True, timeout=60,
-                       env=env)
+                        str(out), "--count", str(n), "--workers", "0", "--maps", "stored"], capture_output=True,
+                       text=True, timeout=60, env=env)  # stored maps: a recipe store takes ~60 bytes a blend
     assert r.returncode == 2, r.stderr[-2000:]
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr

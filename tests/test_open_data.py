@@ -39,7 +39,11 @@ def stores(tmp_path_factory):
     sel = [a for p in PRESETS for a in ("--preset", p)]
     runs = [["sample", d / "variants.zarr", "--config-preset", "tiny", "--per-preset", "1", "--chunk", "2",
              "--workers", "0", *sel],
+            # blends.zarr: a stored-maps store (what plain xr.open_zarr decodes); recipe.zarr: the same blends as a
+            # recipe store, the default (storage.recipe: no maps, open_dataset mixes them)
             ["blend", d / "variants.zarr", d / "blends.zarr", "--config-preset", "tiny", "--count", "3", "--chunk",
+             "2", "--workers", "0", "--maps", "stored"],
+            ["blend", d / "variants.zarr", d / "recipe.zarr", "--config-preset", "tiny", "--count", "3", "--chunk",
              "2", "--workers", "0"],
             ["stress", d / "stress.zarr", "--config-preset", "tiny", "--per-category", "1", "--category",
              "highlight_edge", "--category", "print_pattern", "--size", "64", "--workers", "0"],
@@ -80,6 +84,23 @@ def test_xarray_decodes_svbrdf_stores_as_svgen_reads_them(stores, name):
         assert int(ds["seed"][i]) == st.source(i)["seed"]
     assert ds["diffuse"].attrs["units"] == "1" and "linear" in ds["diffuse"].attrs["colour_space"]
     assert verify_store(path) > 0  # metadata gained attributes; the chunk bytes still match their manifest
+
+
+def test_a_recipe_store_opens_with_its_recipe_and_open_dataset_mixes_its_maps(stores):
+    """A recipe blends store holds no maps: plain ``xr.open_zarr`` shows its recipe; ``open_dataset`` adds the maps,
+    mixed from the variants store, equal to what it decodes from the stored-maps store of the same blends."""
+    from storage.dataset import open_dataset
+
+    plain = xr.open_zarr(stores / "recipe.zarr")
+    assert {"parents", "alpha", "mask_seed", "seed"} <= set(plain.data_vars)
+    assert not {"normal", "diffuse", "specular", "roughness"} & set(plain.data_vars)
+    mixed, stored = open_dataset(stores / "recipe.zarr"), open_dataset(stores / "blends.zarr")
+    for k in ("normal", "diffuse", "specular", "roughness"):
+        assert mixed[k].dims == stored[k].dims and mixed[k].dtype == np.float32, k
+        np.testing.assert_array_equal(mixed[k].values, stored[k].values, err_msg=k)
+        assert mixed[k].encoding["scale_factor"] == stored[k].encoding["scale_factor"], k
+        assert mixed[k].attrs == stored[k].attrs, k
+    np.testing.assert_array_equal(mixed["parents"].values, stored["parents"].values)
 
 
 def test_xarray_decodes_renders_as_svgen_reads_them(stores):
@@ -139,7 +160,7 @@ def test_imported_renders_store_opens_with_xarray(stores, tmp_path):
 
 def test_every_array_has_dimension_names_and_the_store_metadata_only_changed(stores):
     """dimension_names and attributes live in zarr.json; chunk files are what the manifest lists."""
-    for name in ("variants", "blends", "stress", "renders", "imported"):
+    for name in ("variants", "blends", "recipe", "stress", "renders", "imported"):
         g = zarr.open_group(stores / f"{name}.zarr", mode="r")
         for arr_name, arr in g.arrays():
             dims = arr.metadata.dimension_names
@@ -210,7 +231,7 @@ def test_stores_record_the_code_digest_of_their_stage_not_the_package_version(st
 
 
 # -- the dataset card ----------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+@pytest.mark.parametrize("name", ["variants", "blends", "recipe", "stress", "renders", "imported"])
 def test_every_finished_store_has_its_card(stores, name, svgen_cli):
     from storage.store import card_text
 
@@ -236,7 +257,7 @@ def test_every_finished_store_has_its_card(stores, name, svgen_cli):
     assert code == 0 and out == text
 
 
-@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+@pytest.mark.parametrize("name", ["variants", "blends", "recipe", "stress", "renders", "imported"])
 def test_the_cards_params_section_is_the_stages_settings(stores, name):
     """The card prints a store's params.yaml section from the store alone (storage imports no pipeline config,
     #41): the recorded config less storage.card.NOT_SETTINGS. What remains must be exactly the settings class's
@@ -391,7 +412,7 @@ def test_open_dataset_maps_are_float32_with_the_cf_encoding_kept(stores, name):
         np.testing.assert_allclose(ds[k].values, raw[k].values, rtol=0, atol=F32, err_msg=k)
 
 
-@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+@pytest.mark.parametrize("name", ["variants", "blends", "recipe", "stress", "renders", "imported"])
 def test_plain_open_zarr_gives_the_names_as_string_coordinates(stores, name):
     """Without svgen (issue 25 item 11): ``xr.open_zarr`` makes ``preset_name``/``category_name`` string
     coordinates equal to what svgen's readers resolve the stored indices to (open_dataset's labels)."""
@@ -486,7 +507,7 @@ def test_open_dataset_chunks_by_shard(stores):
 
 
 @pytest.mark.filterwarnings("ignore:saving variable:xarray.SerializationWarning")  # the codes hold no NaN
-@pytest.mark.parametrize("name", ["variants", "blends", "stress", "renders", "imported"])
+@pytest.mark.parametrize("name", ["variants", "blends", "recipe", "stress", "renders", "imported"])
 def test_open_dataset_writes_to_netcdf_and_reads_back(stores, tmp_path, name):
     from storage.dataset import open_dataset
 

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from materials.maps import MAP_NAMES, encode_normal
+from materials.maps import MAP_NAMES, N_CHANNELS, encode_normal
 
 from svcore.errors import StoreError
 from svcore.image_io import srgb_encode, write_png
@@ -33,7 +33,9 @@ from svcore.progress import progress
 from svcore.seeds import stream_rng
 
 from .page import MAP_ORDER, PER_ROW, Card, Layout, Section, page
+from storage.recipe import is_recipe
 from storage.store import is_object_url, open_store, read_region, refuse_inside
+from storage.svbrdf_store import SVBRDFStore
 
 KINDS = ("variants", "blends", "stress", "renders")
 #: raw bytes of one read block at most (on-disk dtypes; decoded float maps of one sample exist at a time)
@@ -108,21 +110,30 @@ class _Source:
         self.group = open_store(path, KINDS)
         self.attrs = dict(self.group.attrs)
         self.kind = self.attrs["svgen"]["kind"]
-        self.n = int(self.group["diffuse"].shape[0])
+        # a recipe blends store (storage.recipe) holds no maps: its reader mixes them from the variants store
+        self.mixer = SVBRDFStore(path, "blends") if is_recipe(self.attrs) else None
+        self.n = len(self.mixer) if self.mixer else int(self.group["diffuse"].shape[0])
         self.presets = list(self.attrs.get("presets", []))
         self.param_names = self.attrs.get("param_names", {})
         self.materials = {r.get("preset", r.get("name")): r for r in self.attrs.get("materials", [])}
         self.views = min(views, int(self.group["image"].shape[1])) if self.kind == "renders" else 0
-        arrays = list(MAP_NAMES) + (["image"] if self.views else [])  # every view of a sample is read
+        arrays = ([] if self.mixer else list(MAP_NAMES)) + (["image"] if self.views else [])  # every view is read
         self.sample_bytes = sum(int(np.prod(self.group[k].shape[1:])) * self.group[k].dtype.itemsize for k in arrays)
+        if self.mixer:  # the mixed maps' codes, held like read ones
+            self.sample_bytes += self.mixer.size ** 2 * N_CHANNELS * 2
         self._inputs: dict[int, object] = {}
 
     def read(self, run: list[int]) -> dict[str, np.ndarray]:
         """Raw arrays of samples ``run[0]`` .. ``run[-1]``: maps, images, and the per-sample facts."""
         a, b = run[0], run[-1] + 1
-        names = list(MAP_NAMES) + [k for k in ("preset", "params", "seed", "alpha", "parents", "category", "source",
-                                                "source_seed", "input") if k in self.group]
+        names = ([] if self.mixer else list(MAP_NAMES)) + [
+            k for k in ("preset", "params", "seed", "alpha", "parents", "category", "source", "source_seed", "input")
+            if k in self.group]
         d = {k: read_region(self.group, k, a, b) for k in names}
+        if self.mixer:  # only the shown blends are mixed (the block's rows between them stay zero: never shown)
+            for i in run:
+                for k, v in self.mixer.codes(i).items():
+                    d.setdefault(k, np.zeros((b - a, *v.shape), v.dtype))[i - a] = v
         if self.views:
             d["image"] = read_region(self.group, "image", a, b)[:, :self.views]
         return d
@@ -146,8 +157,6 @@ class _Source:
             self._inputs[k] = None
             rec = self.attrs.get("inputs", [])[k] if k < len(self.attrs.get("inputs", [])) else {}
             if rec.get("kind") == "variants" and not is_object_url(self.path):
-                from storage.svbrdf_store import SVBRDFStore
-
                 try:
                     self._inputs[k] = SVBRDFStore(Path(self.path).parent / rec["path"], "variants")
                 except StoreError:
