@@ -7,7 +7,8 @@ paper's scale the stored maps took 21 GB, a quarter of the data, for an intermed
 once and copies into the renders store.
 
 The maps of blend j are :func:`materials.blend.blend_pair` of its parents' decoded maps under
-:func:`materials.blend.blend_weights`, encoded with :func:`storage.svbrdf_store.encode_maps`: the same uint16 codes
+:func:`materials.blend.blend_weights` (:meth:`RecipeMaps.mix`), encoded by :class:`storage.svbrdf_store.SVBRDFStore`
+with :func:`storage.svbrdf_store.encode_maps`: the same uint16 codes
 that a stored-maps blends store (``blend.maps: stored``, and every store of format version 4 or older) holds, so
 a renders store rendered from either is the same bytes (tests/test_blend_recipe.py).
 
@@ -23,7 +24,6 @@ from pathlib import Path
 import numpy as np
 
 from materials.blend import blend_pair, blend_weights
-from materials.maps import MAP_NAMES
 
 from svcore.errors import StoreError
 
@@ -53,6 +53,8 @@ class RecipeMaps:
     Args:
         group: the blends store's zarr group (opened and checked by :func:`storage.store.open_store`).
         path: its path or URL (the source is recorded relative to it).
+        open_source: ``(path, whole_shards) -> `` the variants store's reader (a
+            :class:`storage.svbrdf_store.SVBRDFStore`, which passes its own opener: this module imports no reader).
         whole_shards: read the source in whole shards (a reader that will mix most blends); default: when the
             blends are at least half as many as the variants, as the blend stage decided for its own reads.
 
@@ -61,9 +63,7 @@ class RecipeMaps:
             recorded parents.
     """
 
-    def __init__(self, group, path, whole_shards: bool | None = None):
-        from .svbrdf_store import SVBRDFStore  # (svbrdf_store imports this module)
-
+    def __init__(self, group, path, open_source, whole_shards: bool | None = None):
         attrs = dict(group.attrs)
         self.rule, src = attrs[RECIPE_ATTR], attrs["inputs"][0]
         n = int(group["seed"].shape[0])
@@ -71,7 +71,7 @@ class RecipeMaps:
         if whole_shards is None:
             whole_shards = 2 * n >= int(src.get("n", n))
         try:
-            self.source = SVBRDFStore(where, "variants", whole_shards=whole_shards)
+            self.source = open_source(where, whole_shards)
         except StoreError as e:
             raise StoreError(f"{path} is a recipe blends store: its maps are mixed from the variants store it records "
                              f"as {src['path']!r}, which does not open ({e}). Keep the two stores side by side, or "
@@ -97,16 +97,3 @@ class RecipeMaps:
         w = blend_weights(self.size, self.alpha[i], self.mask_seed[i], self.rule["mode"], self.rule["mask_per_map"],
                           self.rule["mask_scale"])
         return blend_pair(self.source.maps(a), self.source.maps(b), w)
-
-    def codes_range(self, start: int, stop: int) -> dict[str, np.ndarray]:
-        """The uint16 codes of blends [start, stop) (map name -> (n, S, S, C)), as a stored-maps store holds them."""
-        from .svbrdf_store import encode_row
-
-        out: dict[str, np.ndarray] = {}
-        for j, i in enumerate(range(start, stop)):
-            encode_row(out, stop - start, j, self.mix(i))
-        if not out:  # an empty range: empty arrays of the maps' shapes
-            from materials.maps import MAP_CHANNELS
-
-            out = {k: np.empty((0, self.size, self.size, MAP_CHANNELS[k]), np.uint16) for k in MAP_NAMES}
-        return out

@@ -199,7 +199,7 @@ class SVBRDFStore:
         self.kind = self.attrs["svgen"]["kind"]
         self.presets: list[str] = list(self.attrs.get("presets", []))
         #: a recipe blends store's mixer (storage.recipe): no maps stored, each blend mixed from its parents on read
-        self.recipe = RecipeMaps(self.group, path) if is_recipe(self.attrs) else None
+        self.recipe = RecipeMaps(self.group, path, _open_variants) if is_recipe(self.attrs) else None
         self.size = self.recipe.size if self.recipe else int(self.group["diffuse"].shape[1])
         self._cache = ChunkCache(self.group, self.CACHE_BYTES if cache_bytes is None else cache_bytes, whole_shards)
 
@@ -217,15 +217,18 @@ class SVBRDFStore:
     def codes(self, i: int) -> dict[str, np.ndarray]:
         """The stored uint16 codes of sample ``i``'s maps (map name -> (S, S, C)), not decoded (through the cache)."""
         if self.recipe:
-            return {k: v[0] for k, v in self.recipe.codes_range(i, i + 1).items()}
+            return encode_maps(self.recipe.mix(i))
         return {k: self._cache.sample(k, i) for k in MAP_NAMES}
 
     def codes_range(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """The uint16 codes of samples [start, stop) (map name -> (n, S, S, C)), one read per array; a recipe
         blends store's mixed as a stored-maps store would hold them."""
-        if self.recipe:
-            return self.recipe.codes_range(start, stop)
-        return {k: read_region(self.group, k, start, stop) for k in MAP_NAMES}
+        if not self.recipe:
+            return {k: read_region(self.group, k, start, stop) for k in MAP_NAMES}
+        out = {k: np.empty((stop - start, self.size, self.size, c), np.uint16) for k, c in MAP_CHANNELS.items()}
+        for j in range(stop - start):
+            encode_row(out, stop - start, j, self.recipe.mix(start + j))
+        return out
 
     def maps_range(self, start: int, stop: int) -> list[SVBRDF]:
         """Maps of samples [start, stop) with one read per array (fast for whole chunks)."""
@@ -252,6 +255,11 @@ class SVBRDFStore:
             return m.validate(normal_tol=1e-3)
         except ValueError as e:
             raise StoreError(f"{self.path}: sample {i}: {e}") from None
+
+
+def _open_variants(path, whole_shards: bool) -> SVBRDFStore:
+    """A recipe blends store's source (storage.recipe.RecipeMaps opens it through this: it imports no reader)."""
+    return SVBRDFStore(path, "variants", whole_shards=whole_shards)
 
 
 class SVBRDFInputs:

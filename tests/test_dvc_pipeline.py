@@ -69,7 +69,8 @@ def test_repro_runs_every_stage_then_nothing(tiny_dvc_project):
 #: sample is not here: its kill and resume are tests/test_sample_resume.py's, through the chunk-task code that blend
 #: and render share with it; what DVC adds (`dvc repro` after a kill) is shown for a store stage by those two.
 KILLS = {
-    "blend": ({"blend": {"seed": 1, "chunk": 1, "count": 40}}, "data/blends.zarr.partial/.done", 2),
+    # stored maps: a recipe blend (the default) takes milliseconds, so 40 of them could finish before the kill
+    "blend": ({"blend": {"seed": 1, "chunk": 1, "count": 40, "maps": "stored"}}, "data/blends.zarr.partial/.done", 2),
     "render": ({"render": {"seed": 1, "chunk": 1}}, "data/renders.zarr.partial/.done", 3),
     # 120 steps: ~6 s at the tiny model's ~20 it/s, so the kill (within 20 ms of the step-2 checkpoint) lands with
     # ~5 s to spare on this machine and seconds more on a loaded one; each of the test's two fits runs them all

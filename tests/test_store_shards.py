@@ -146,6 +146,7 @@ def test_a_schema_2_store_stays_readable(variants, reference, tmp_path, monkeypa
     with monkeypatch.context() as m:  # svgen as it was: schema 2, unsharded
         m.setattr(S, "array_layout", unsharded)
         m.setattr(S, "SCHEMA_VERSION", 2)
+        m.setattr(S, "UNCHANGED_SCHEMA", 2)
         run_sample(old, build(SampleConfig, "tiny", presets=PRESETS, per_preset=N_SVBRDF // 2, chunk=CHUNK),
                    workers=0)
     g = open_store(old, "variants")
