@@ -31,7 +31,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from materials.maps import MAP_NAMES, N_CHANNELS, SVBRDF
+from materials.maps import MAP_NAMES, SVBRDF
 
 from svcore.errors import StoreError
 
@@ -118,13 +118,16 @@ class RendersReader:
         self.base_res = int(self.group["diffuse"].shape[1])
         self._cache = ChunkCache(self.group, 0)
         self._views: np.ndarray | None = None
-        self._planes: dict[int, list] = {}
+        self._planes: dict[int, object] = {}  # SVBRDF -> its BaseTexels
         self.set_cache_bytes(self.CACHE_BYTES if cache_bytes is None else cache_bytes)
 
     @property
     def plane_bytes(self) -> int:
-        """Bytes of one SVBRDF's base maps as planes: 10 float32 channels at the base resolution."""
-        return self.base_res ** 2 * N_CHANNELS * 4
+        """Bytes of one SVBRDF's base maps as the transform reads them (:class:`storage.views.BaseTexels`): 10
+        float32 channels and 2 of padding per texel at the base resolution."""
+        from .views import TEXEL_STRIDE
+
+        return self.base_res ** 2 * TEXEL_STRIDE * 4
 
     def min_cache_bytes(self) -> int:
         """The smallest useful budget: one chunk of every array a training read touches, plus one SVBRDF's planes
@@ -193,7 +196,7 @@ class RendersReader:
         Returns:
             (size, size, 3) float32 linear image; SVBRDF of (size, size, C) maps.
         """
-        from .views import planes_of, svbrdf_of, transform_planes
+        from .views import svbrdf_of, texels_of, transform_planes
 
         s, v = self._split(i)
         if not (0 <= row0 and 0 <= col0 and row0 + size <= self.res and col0 + size <= self.res):
@@ -201,7 +204,7 @@ class RendersReader:
         if s not in self._planes:
             if len(self._planes) >= self.plane_cache:
                 self._planes.pop(next(iter(self._planes)))
-            self._planes[s] = planes_of(self.base_maps(s))
+            self._planes[s] = texels_of(self.base_maps(s))
         planes = transform_planes(self._planes[s], self.base_res, self.view_params(i), self.res, (row0, col0, size))
         img = decode_srgb8(self._cache.sample("image", s)[v, row0:row0 + size, col0:col0 + size])
         return img, svbrdf_of(planes, size)

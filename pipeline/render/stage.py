@@ -62,11 +62,11 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
     Returns:
         images (V, R, R, 3) uint8 sRGB codes; views (V, 7) float64 view parameters.
     """
-    from storage.views import planes_of, transform_planes
+    from storage.views import texels_of, transform_planes
 
     from .views import R_MAX, R_MIN, draw_views
 
-    base = planes_of(maps)
+    base = texels_of(maps)
     b = maps.normal.shape[0]
     views = draw_views(cfg.seed, index, cfg.views, light_radius or (R_MIN, R_MAX), tuple(cfg.zoom))
     images = np.empty((cfg.views, cfg.res, cfg.res, 3), np.uint8)
