@@ -36,7 +36,7 @@ from materials import registry
 from materials.maps import pack_maps
 from pipeline.render.scene import FlashScene, scene_constants
 from pipeline.render.views import draw_view
-from storage.views import planes_of, svbrdf_of, transform_planes
+from storage.views import svbrdf_of, texels_of, transform_planes
 from svcore.seeds import rng_for
 from train.render import flash_render
 
@@ -79,7 +79,7 @@ def main(argv=None) -> int:
     for i, name in enumerate(names):
         base = registry.get_preset(name).generate(None, BASE, 0)
         view = draw_view(rng_for(0, "render", i, 0))  # the views of bench_render_quality
-        planes = transform_planes(planes_of(base), BASE, view, res)
+        planes = transform_planes(texels_of(base), BASE, view, res)
         maps = svbrdf_of(planes, res)
         (centre, integral), t_cpu, t_wall = timed(lambda: torch_images(maps, view, SUPERSAMPLE), 1)
         _, tc_cpu, tc_wall = timed(lambda: flash_render(torch.from_numpy(pack_maps(maps)).permute(2, 0, 1)[None],

@@ -34,7 +34,7 @@ from pipeline.config import RenderConfig, SampleConfig
 from pipeline.render.scene import FlashScene
 from pipeline.render.stage import run_render
 from storage.renders_store import RendersReader
-from storage.views import planes_of, transform_planes
+from storage.views import texels_of, transform_planes
 from pipeline.sample import run_sample
 from svcore.config import build
 
@@ -162,7 +162,7 @@ def main(argv=None) -> int:
             for s in range(r1.n_svbrdf):
                 i = s * cfg.views
                 v = r1.view_params(i)
-                planes = transform_planes(planes_of(r1.base_maps(s)), r1.base_res, v, cfg.res)
+                planes = transform_planes(texels_of(r1.base_maps(s)), r1.base_res, v, cfg.res)
                 ref = np.clip(np.mean([ref_scene.render_planes(planes, (v.light_x, v.light_y), 10_000 + k, clip=False)
                                        for k in range(8)], axis=0), 0, 1)
                 raw = FlashScene(cfg.res, cfg.spp, cfg.light, cfg.sampler).render_planes(

@@ -29,7 +29,7 @@ import numpy as np
 from materials import registry
 from pipeline.render.scene import FlashScene, scene_constants
 from pipeline.render.views import draw_view
-from storage.views import planes_of, transform_planes
+from storage.views import texels_of, transform_planes
 from svcore.seeds import rng_for
 
 from harness import RESULTS, parser, timed, write_csv, write_results
@@ -76,7 +76,7 @@ def main(argv=None) -> int:
     views = [draw_view(rng_for(0, "render", i, 0)) for i in range(len(mats))]
     rows, refs_info = [], []
     for res in RESOLUTIONS:
-        planes = [transform_planes(planes_of(m), BASE, v, res) for (_, m), v in zip(mats, views)]
+        planes = [transform_planes(texels_of(m), BASE, v, res) for (_, m), v in zip(mats, views)]
         refs = []
         for (name, _), p, v in zip(mats, planes, views):
             (ref, noise), _, ref_wall = timed(lambda: reference(res, p, v, passes))

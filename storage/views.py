@@ -87,7 +87,7 @@ TEXEL_STRIDE = 12
 class BaseTexels:
     """Base maps packed texel by texel for :func:`transform_planes`: ``buf`` holds each texel's 10 channels (and 2
     zeros) side by side, so a bilinear corner is 3 packet gathers of 4 floats from one 48-byte run, where 10
-    separate planes cost 10 scattered loads (#42: 9.1 -> 6.3 ms per 288^2 view on one thread, the same bytes).
+    separate planes cost 10 scattered loads (#42; the same floats, faster: experiments/packed_texels).
 
     Attributes:
         buf: mi.Float of width base * base * TEXEL_STRIDE, texels row-major with numpy row 0 = image top.

@@ -146,7 +146,9 @@ def test_the_config_default_zoom_is_the_views_default():
 
 def test_packed_texels_hold_the_planes_and_refuse_another_base():
     """#42: the transform reads base maps packed texel by texel (BaseTexels); packing the planes or the maps gives
-    the same texels, 10 channels then 2 zeros each, and a view of them equals the view of the plane list."""
+    the same texels, 10 channels in the plane order then 2 zeros each, and texels of another base are refused (an
+    unchecked base would gather from the wrong rows, or past the buffer). That the packed gathers give the floats
+    of one gather per plane is checked end to end by scripts/same_bytes.py (experiments/packed_texels)."""
     from materials.maps import SVBRDF, normalize
     from storage.views import TEXEL_STRIDE, BaseTexels, planes_of, texels_of, transform_planes
 
@@ -161,9 +163,5 @@ def test_packed_texels_hold_the_planes_and_refuse_another_base():
     planes = np.stack([np.asarray(p) for p in planes_of(m)], axis=-1)
     assert np.array_equal(buf[:, :10], planes) and not buf[:, 10:].any()
     assert np.array_equal(np.asarray(BaseTexels.of_planes(planes_of(m), b).buf), np.asarray(t.buf))
-    view = ViewParams(zoom=1.7, rotation=0.4, shift_u=0.1, shift_v=-0.2)  # minifying: 2 x 2 subsamples
-    a = [np.asarray(p) for p in transform_planes(t, b, view, 9)]
-    c = [np.asarray(p) for p in transform_planes(planes_of(m), b, view, 9)]
-    assert all(np.array_equal(x, y) for x, y in zip(a, c))
     with pytest.raises(ValueError, match="not 13"):
-        transform_planes(t, 13, view, 9)
+        transform_planes(t, 13, ViewParams(zoom=1.7, rotation=0.4), 9)

@@ -94,7 +94,7 @@ def probe_scene(res: int, step: str):
 def agreement(res: int, views: int, presets: int = 15) -> dict:
     """``shape_intersect`` against ``direct`` on views of evenly spaced presets of the library."""
     import materials
-    from storage.views import planes_of, transform_planes
+    from storage.views import texels_of, transform_planes
 
     from pipeline.render.views import draw_views
 
@@ -103,7 +103,7 @@ def agreement(res: int, views: int, presets: int = 15) -> dict:
     pick = np.linspace(0, len(names) - 1, presets).round().astype(int)
     same, rel, codes, n_codes, n_views = 0, 0.0, 0, 0, 0
     for i in pick:
-        base = planes_of(names[i].generate(None, res, int(i)))
+        base = texels_of(names[i].generate(None, res, int(i)))
         for v in draw_views(0, int(i), max(1, views // presets)):
             planes = transform_planes(base, res, v, res)
             a = direct.render_planes(planes, (v.light_x, v.light_y), v.seed, clip=False)
@@ -140,9 +140,9 @@ def measure(res: int, calls: int, rounds: int) -> dict:
     import materials
     from svcore.mi_env import dr, mi
     from storage.srgb8 import DrjitEncoder
-    from storage.views import ViewParams, planes_of, supersampling, transform_planes
+    from storage.views import ViewParams, supersampling, texels_of, transform_planes
 
-    base = planes_of(materials.presets()[0].generate(None, res, 0))
+    base = texels_of(materials.presets()[0].generate(None, res, 0))
     views = {ss: ViewParams(light_x=0.3, light_y=-0.2, zoom=z, rotation=0.7, shift_u=0.25, shift_v=0.6, seed=5)
              for ss, z in ((1, 0.85), (2, 1.2))}
     assert all(supersampling(v, res, res) == ss for ss, v in views.items())
