@@ -89,10 +89,6 @@ DONE_DIR = ".done"
 warnings.filterwarnings("ignore", message="Consolidated metadata is currently not part", category=UserWarning)
 
 
-#: the zstd level of every array whose spec chooses none (ids, seeds, view parameters, labels)
-ZSTD_LEVEL = 3
-
-
 @dataclass(frozen=True)
 class ArraySpec:
     """One per-sample array of a store.
@@ -108,8 +104,6 @@ class ArraySpec:
         attrs: the array's own attributes, in CF conventions (``long_name``, ``units``, ``scale_factor`` /
             ``add_offset`` where the stored integers are a linear encoding, ``transfer_function`` where they are
             not): what xarray, or any reader without svgen, decodes and shows.
-        level: the array's zstd level (:func:`array_layout`): :data:`ZSTD_LEVEL` unless the array's own curve of
-            bytes against CPU chose another (experiments/store_levels/REPORT.md).
     """
 
     shape: tuple[int, ...]
@@ -118,7 +112,6 @@ class ArraySpec:
     space: str = "n/a"
     dims: tuple[str, ...] = ()
     attrs: dict = field(default_factory=dict, compare=False, hash=False)
-    level: int = ZSTD_LEVEL
 
     def dimension_names(self, name: str) -> tuple[str, ...]:
         """("sample", per-sample axis names) of this array stored as ``name``."""
@@ -210,11 +203,10 @@ def _history_line(out: str | os.PathLike) -> str:
     return history_line(lambda p: history_path(p, out))
 
 
-def _compressors(level: int = ZSTD_LEVEL):
-    # zstd, in the zarr v3 spec so that xarray and any zarr reader open the stores (docs/CODECS.md: the measured knee,
-    # delta + zstd 1, uses numcodecs.delta, outside the spec); CRC32C: detects corrupted chunks. The level is the
-    # array's (ArraySpec.level): images and maps chose theirs on their own curves (experiments/store_levels).
-    return [ZstdCodec(level=level), Crc32cCodec()]
+def _compressors():
+    # zstd level 3, in the zarr v3 spec so that xarray and any zarr reader open the stores (docs/CODECS.md: the
+    # measured knee, delta + zstd 1, uses numcodecs.delta, outside the spec); CRC32C: detects corrupted chunks.
+    return [ZstdCodec(level=3), Crc32cCodec()]
 
 
 def array_layout(spec: ArraySpec, n: int, chunk: int) -> dict:
@@ -235,7 +227,7 @@ def array_layout(spec: ArraySpec, n: int, chunk: int) -> dict:
     per_sample = int(np.prod(spec.shape, dtype=np.int64)) * np.dtype(spec.dtype).itemsize
     inner = 1 if per_sample >= SMALL_SAMPLE_BYTES else chunk
     return {"shape": (n, *spec.shape), "chunks": (inner, *spec.shape), "shards": (chunk, *spec.shape),
-            "dtype": spec.dtype, "compressors": _compressors(spec.level), "fill_value": 0}
+            "dtype": spec.dtype, "compressors": _compressors(), "fill_value": 0}
 
 
 def create_arrays(g: zarr.Group, arrays: dict[str, ArraySpec], n: int, chunk: int) -> None:

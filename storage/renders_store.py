@@ -41,10 +41,6 @@ from storage.svbrdf_store import decode_maps, map_specs
 from .srgb8 import ENCODING, decode_srgb8
 from .views import VIEW_FIELDS, VIEW_LONG_NAMES, VIEW_UNITS, ViewParams
 
-#: the images' zstd level, chosen on their curve of bytes against CPU at the paper's scale (experiments/store_levels;
-#: the maps' levels: storage.svbrdf_store.MAP_LEVELS)
-IMAGE_LEVEL = 4
-
 KIND = "renders"
 
 
@@ -60,7 +56,7 @@ def array_specs(views: int, res: int, base: int) -> dict[str, ArraySpec]:
         "category": ("stress category", "categories")}.items()}
     return {
         "image": ArraySpec((views, res, res, 3), "uint8", ENCODING, "linear sRGB primaries, stored sRGB-encoded",
-                           ("view_index", "y", "x", "rgb"), IMAGE_ATTRS, level=IMAGE_LEVEL),
+                           ("view_index", "y", "x", "rgb"), IMAGE_ATTRS),
         "view": ArraySpec((views, len(VIEW_FIELDS)), "float64", "ViewParams fields: " + ", ".join(VIEW_FIELDS),
                           dims=("view_index", "view_field"), attrs=view_attrs()),
         **map_specs(base, ("base_y", "base_x")),

@@ -58,21 +58,13 @@ MAP_ATTRS = {
 MAP_DIMS = {"normal": "xyz", "diffuse": "rgb", "specular": "rgb", "roughness": "roughness_channel"}
 
 
-#: each map's zstd level, in every store that holds it (variants, blends, renders, stress, imports): chosen on its own
-#: curve of bytes against CPU at the paper's scale (experiments/store_levels: the smallest KB + 13.9 KB per ms of
-#: encode + decode CPU per sample, over the stores weighted by their samples; tests/test_store_levels.py holds the
-#: table to that measurement). Not a format change: zarr records the level, any reader decodes any level.
-MAP_LEVELS = {"normal": 1, "diffuse": 4, "specular": 4, "roughness": 2}
-
-
 def map_specs(size: int, dims: tuple[str, str] = ("y", "x")) -> dict[str, ArraySpec]:
     """ArraySpecs of the four maps at ``size``²; ``dims``: the names of their row and column axes."""
     enc = {"normal": "(n+1)/2 * 65535", "diffuse": "linear * 65535", "specular": "linear * 65535",
            "roughness": "perceptual roughness * 65535 (alpha = r^2)"}
     space = {"normal": "tangent (x right, y up, z out)", "diffuse": LINEAR_SRGB, "specular": LINEAR_SRGB,
              "roughness": "n/a"}
-    return {k: ArraySpec((size, size, c), "uint16", enc[k], space[k], (*dims, MAP_DIMS[k]), MAP_ATTRS[k],
-                         level=MAP_LEVELS[k])
+    return {k: ArraySpec((size, size, c), "uint16", enc[k], space[k], (*dims, MAP_DIMS[k]), MAP_ATTRS[k])
             for k, c in MAP_CHANNELS.items()}
 
 
