@@ -49,7 +49,8 @@ def launch_groups(views: int, per_launch: int) -> list[range]:
 
 
 def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
-                  light_radius: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                  light_radius: tuple[float, float] | None = None,
+                  out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """All views of one SVBRDF.
 
     Args:
@@ -58,9 +59,11 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
         index: the SVBRDF's index (seeds its views).
         cfg: the render configuration.
         light_radius: optional (min, max) light offset radius replacing the default range (stress sets).
+        out: (V, R, R, 3) uint8 array the images are written into (a row of the chunk's image array: no
+            per-SVBRDF allocation and no copy of the chunk's images into a stacked one), else a new one.
 
     Returns:
-        images (V, R, R, 3) uint8 sRGB codes; views (V, 7) float64 view parameters.
+        images (V, R, R, 3) uint8 sRGB codes (``out`` where given); views (V, 7) float64 view parameters.
     """
     from storage.views import texels_of, transform_planes
 
@@ -69,7 +72,7 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
     base = texels_of(maps)
     b = maps.normal.shape[0]
     views = draw_views(cfg.seed, index, cfg.views, light_radius or (R_MIN, R_MAX), tuple(cfg.zoom))
-    images = np.empty((cfg.views, cfg.res, cfg.res, 3), np.uint8)
+    images = np.empty((cfg.views, cfg.res, cfg.res, 3), np.uint8) if out is None else out
     for group in launch_groups(cfg.views, cfg.views_per_launch):
         planes = [transform_planes(base, b, views[k], cfg.res) for k in group]
         lights = [(views[k].light_x, views[k].light_y) for k in group]
@@ -96,7 +99,10 @@ def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], 
     start, stop = c * cfg.chunk, min(n, (c + 1) * cfg.chunk)
     scene = scene_for(cfg)
     raw = src.read(start, stop)
-    images, views = [], []
+    # the chunk's images rendered in place: a stacked copy of them was the render stage's largest fresh allocation
+    # (160 MB per 64-SVBRDF chunk at 288², page-faulted in and copied: experiments/chunk_buffers)
+    images = np.empty((stop - start, cfg.views, cfg.res, cfg.res, 3), np.uint8)
+    views = []
     for j in range(stop - start):
         s = start + j
         maps = decode_maps({k: raw[k][j] for k in MAP_NAMES})
@@ -105,10 +111,9 @@ def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], 
         except ValueError as e:
             raise StoreError(f"{src.paths[raw['input'][j]]}: sample {raw['index'][j]}: {e}") from None
         radius = tuple(raw["light_radius"][j]) if np.isfinite(raw["light_radius"][j]).all() else None
-        im, vw = render_svbrdf(scene, maps, s, cfg, radius)
-        images.append(im)
+        _, vw = render_svbrdf(scene, maps, s, cfg, radius, out=images[j])
         views.append(vw)
-    data = {"image": np.stack(images), "view": np.stack(views), **{k: raw[k] for k in MAP_NAMES},
+    data = {"image": images, "view": np.stack(views), **{k: raw[k] for k in MAP_NAMES},
             "source": raw["index"], "source_seed": raw["seed"], "input": raw["input"], "preset": raw["preset"],
             "category": raw["category"]}
     write_chunk(partial, c, start, data)
