@@ -22,18 +22,6 @@ from ..exec.runner import Stage
 
 _SCENES: dict[tuple, object] = {}
 _INPUTS: dict[str, SVBRDFStore] = {}
-#: the worker's image buffer of a whole chunk, kept across its chunks: a fresh one is page-faulted in (and zeroed by
-#: the kernel) for every chunk, 160 MB per 64 SVBRDFs at 288² (experiments/chunk_buffers)
-_IMAGES: dict[tuple, np.ndarray] = {}
-
-
-def _chunk_images(shape: tuple[int, ...], n: int) -> np.ndarray:
-    """The worker's (chunk, V, R, R, 3) uint8 buffer, its first ``n`` rows (a chunk's task writes it whole before
-    it returns, and a worker runs one task at a time, so the next chunk may reuse it)."""
-    if shape not in _IMAGES:
-        _IMAGES.clear()
-        _IMAGES[shape] = np.empty(shape, np.uint8)
-    return _IMAGES[shape][:n]
 
 
 def _scene(res: int, spp: int, light: str, sampler: str, views: int = 1):
@@ -113,7 +101,7 @@ def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], 
     raw = src.read(start, stop)
     # the chunk's images rendered in place: a stacked copy of them was the render stage's largest fresh allocation
     # (160 MB per 64-SVBRDF chunk at 288², page-faulted in and copied: experiments/chunk_buffers)
-    images = _chunk_images((cfg.chunk, cfg.views, cfg.res, cfg.res, 3), stop - start)
+    images = np.empty((stop - start, cfg.views, cfg.res, cfg.res, 3), np.uint8)
     views = []
     for j in range(stop - start):
         s = start + j
