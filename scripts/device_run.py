@@ -158,8 +158,12 @@ class Run:
         self.log.write(f"\n$ {name} {shown}\n")
         self.log.flush()
         t0 = time.perf_counter()
+        # SIGINT back to its default in the child: a process that inherits it ignored (a background job of a
+        # non-interactive shell, or a test worker some earlier code left so) starts Python with no KeyboardInterrupt,
+        # so the clock's Ctrl-C would not stop the fit and it was killed, without its model, 120 s later
         p = subprocess.Popen(cmd, stdout=self.log, stderr=subprocess.STDOUT, cwd=ROOT,
-                             env={**os.environ, "SVGEN_NO_PROGRESS": "1", **(env or {})})
+                             env={**os.environ, "SVGEN_NO_PROGRESS": "1", **(env or {})},
+                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         stopped, t_started = False, None
         while p.poll() is None:
             time.sleep(0.2)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 from pathlib import Path
 
@@ -37,9 +38,11 @@ def test_the_prepared_gpu_run_writes_its_json_log_and_model(tmp_path):
     run_sample(ref, build(SampleConfig, "tiny", presets=("leather/tan_worn",), per_preset=1), workers=0)
     out = tmp_path / "out"
     env = {**os.environ, "SVGEN_DEVICE_WHEELS": str(tmp_path / "no_wheels")}
+    # started with SIGINT ignored, as a background job of a non-interactive shell is: the fits must still stop on
+    # the clock's Ctrl-C (they inherited the ignore and were killed without a model before device_run restored it)
     r = subprocess.run(["bash", str(ROOT / "scripts" / "device_run.sh"), "--out", str(out), "--work",
                         str(tmp_path / "work"), "--reference", str(ref), *TINY], capture_output=True, text=True,
-                       env=env, cwd=tmp_path)
+                       env=env, cwd=tmp_path, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     log = (out / "device_run.log").read_text() if (out / "device_run.log").exists() else ""
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:] + log[-3000:]
     d = json.loads((out / "device_run.json").read_text())
