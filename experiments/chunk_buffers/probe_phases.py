@@ -3,13 +3,14 @@
 ``--svbrdfs`` SVBRDFs spread over paper-preset variants and blends stores, each rendered as the render stage does
 (read and mix, decode, validate, pack, then per view: transform, scene parameters, Mitsuba, 8-bit encode), plus the
 zstd-3 compression of its images and maps as the stage's shard writer does it. One untimed pass first (kernel
-compilation); CPU ms per view of the timed pass are printed.
+compilation); CPU ms per view of the timed pass are printed and written to results/phases.json.
 
     python3 experiments/chunk_buffers/probe_phases.py --variants ../ps2/variants.zarr --blends ../ps2/blends.zarr
 """
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -90,6 +91,10 @@ def main(argv=None) -> dict:
     out = {k: round(v / views * 1e3, 2) for k, v in t.items()}
     out["sum"] = round(sum(out.values()), 2)
     print(out)
+    res = Path(__file__).resolve().parent / "results" / "phases.json"
+    res.write_text(json.dumps({"ms_per_view": out, "views": views, "svbrdfs": a.svbrdfs,
+                               "command": "python3 experiments/chunk_buffers/probe_phases.py "
+                                          + " ".join(argv or sys.argv[1:])}, indent=1) + "\n")
     return out
 
 
