@@ -208,6 +208,12 @@ class RenderConfig(StageConfig):
     default (the same bytes as before the key), so a cuda_ad_rgb store has a config hash of its own: CUDA's
     arithmetic need not match LLVM's bit for bit (docs/GPU.md)."""
 
+    maps: Literal["inputs", "stored"] = "inputs"
+    """inputs: the renders store holds no maps; a reader reads SVBRDF s's base maps from the input store it records
+    (sample ``source[s]`` of ``inputs[input[s]]``; a recipe blends store mixes them from its variants store), checked
+    against the inputs' config hashes and seeds: the same codes, no map bytes (about 22 of the paper's 57 GB); keep
+    the inputs beside it. stored: copy the maps into the store too (a self-contained store, format version 4); left
+    out of the recorded config at stored (the same bytes as before the key)."""
     views_per_launch: int = Field(1, ge=1)
     """Views of one SVBRDF rendered by one Mitsuba call (point flash only; at most ``views`` are used). 1 renders
     each view on its own. More shares the call's fixed cost (tracing the Python integrator and BSDF, the launch):
@@ -235,7 +241,8 @@ class RenderConfig(StageConfig):
         """Keys left out of the recorded config because they are at their default (same bytes as before)."""
         return (("zoom",) if tuple(self.zoom) == self.DEFAULT_ZOOM else ()) + \
             (("variant",) if self.variant == "llvm_ad_rgb" else ()) + \
-            (("views_per_launch",) if self.views_per_launch == 1 else ())
+            (("views_per_launch",) if self.views_per_launch == 1 else ()) + \
+            (("maps",) if self.maps == "stored" else ())
 
 
 #: the importer's layouts (pipeline.importer.layouts.LAYOUTS, a test holds them equal) and "auto"

@@ -210,6 +210,14 @@ def render_card(group) -> str:
                     f"rule `{attrs.get('blend_rule', '')}` ({attrs['recipe'].get('mode')} mode). svgen's readers "
                     "and `storage.dataset.open_dataset` mix them; plain `xr.open_zarr` shows the recipe only. "
                     "Keep the variants store beside this one."]
+    if kind == "renders" and "image" in group and "diffuse" not in group:  # format 6 (storage/renders_inputs.py)
+        out += ["", "**No base maps are stored.** Each SVBRDF's base maps are sample `source` of the input store "
+                    "`inputs[input]` (group attribute `inputs`: paths relative to this store's folder, with their "
+                    "config hashes): " + ", ".join(f"`{d.get('path', '?')}` ({d.get('kind', '?')})"
+                                                  for d in attrs.get("inputs", []))
+                + ". svgen's readers and `storage.dataset.open_dataset` read them from there (a recipe blends store "
+                  "mixes them from its variants store); plain `xr.open_zarr` shows the images and indices only. Keep "
+                  "the input stores beside this one."]
     if kind == "renders" and "view" in group:
         va = dict(group["view"].attrs)
         out += ["", "View parameters (`view` array, last axis in this order):", "",

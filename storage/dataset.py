@@ -61,6 +61,8 @@ def open_dataset(path: str | os.PathLike, storage_options: dict | None = None):
     ds = xr.open_zarr(str(path), chunks={"sample": shard}, **kw)
     if is_recipe(dict(g.attrs)):  # no stored maps: mixed from the source variants store, lazily, shard by shard
         ds = ds.assign(_recipe_maps(path, shard))
+    elif g.attrs["svgen"]["kind"] == "renders" and "diffuse" not in g:  # format 6: read from its inputs, lazily
+        ds = ds.assign(_recipe_maps(path, shard, renders=True))
     for name in list(ds.data_vars):
         var = ds[name]
         if "scale_factor" in var.encoding and var.dtype == np.float64:
@@ -83,10 +85,12 @@ def open_dataset(path: str | os.PathLike, storage_options: dict | None = None):
     return ds
 
 
-def _recipe_maps(path, shard: int) -> dict:
+def _recipe_maps(path, shard: int, renders: bool = False) -> dict:
     """The four maps of a recipe blends store (:mod:`storage.recipe`) as lazy float32 variables, one dask task
     per shard mixing its blends, decoded from the codes a stored-maps store holds, with its CF encoding (so
-    ``to_netcdf`` writes the codes) and the same attributes."""
+    ``to_netcdf`` writes the codes) and the same attributes. ``renders``: the base maps of a renders store without
+    maps (format version 6), read from its inputs (:mod:`storage.renders_inputs`), as a version-4 store holds
+    them (dimensions ``base_y``, ``base_x``)."""
     import dask
     import dask.array as da
     import xarray as xr
@@ -95,11 +99,21 @@ def _recipe_maps(path, shard: int) -> dict:
 
     from .svbrdf_store import SVBRDFStore, map_specs
 
-    st = SVBRDFStore(path, "blends")  # here, not in the tasks only: a missing source fails in one line now
-    n, size = len(st), st.size
+    def reader():  # each task its own (no shared cache)
+        if renders:
+            from .renders_store import RendersReader
+            return RendersReader(path, cache_bytes=0)
+        return SVBRDFStore(path, "blends")
 
-    def packed(a: int, b: int) -> np.ndarray:  # (b - a, S, S, 10) uint16: each task its own reader (no shared cache)
-        codes = SVBRDFStore(path, "blends").codes_range(a, b)
+    st = reader()  # here, not in the tasks only: a missing source fails in one line now
+    n, size = (st.n_svbrdf, st.base_res) if renders else (len(st), st.size)
+
+    def packed(a: int, b: int) -> np.ndarray:  # (b - a, S, S, 10) uint16
+        r = reader()
+        if renders:
+            return np.stack([np.concatenate([c[k] for k in MAP_NAMES], axis=-1)
+                             for c in map(r.base_codes, range(a, b))])
+        codes = r.codes_range(a, b)
         return np.concatenate([codes[k] for k in MAP_NAMES], axis=-1)
 
     blocks = [da.from_delayed(dask.delayed(packed)(a, min(n, a + shard)), (min(n, a + shard) - a, size, size,
@@ -107,7 +121,7 @@ def _recipe_maps(path, shard: int) -> dict:
               for a in range(0, n, shard)]
     codes = da.concatenate(blocks) if blocks else da.zeros((0, size, size, N_CHANNELS), np.uint16)
     out = {}
-    for k, spec in map_specs(size).items():
+    for k, spec in map_specs(size, *((("base_y", "base_x"),) if renders else ())).items():
         attrs = spec.array_attrs()
         sf, ao = attrs.pop("scale_factor"), attrs.pop("add_offset")
         # as xarray decodes a stored map (in float64, code * scale_factor + add_offset), then float32 as above

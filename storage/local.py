@@ -71,8 +71,13 @@ from .objstore import is_object_url, local_path, normalize_url
 #: still agree with its own maps (docs/DATA.md); 5: the recipe blends store (no maps: the parents, weights and mask
 #: seeds, mixed on read, storage/recipe.py), `svgen blend`'s default. Only a recipe store is written as version 5:
 #: every other store's format is version 4's, and it records 4, so an older svgen still reads it. Readers read 2 to
-#: 5 (a blends store with maps, of any version, is read as it always was). A newer version is refused in one line.
-SCHEMA_VERSION = 5
+#: 5 (a blends store with maps, of any version, is read as it always was); 6: the renders store without maps (its
+#: readers read each SVBRDF's base maps from the input stores it records, storage/renders_store.py), `svgen
+#: render`'s default; a renders store with maps is still written as version 4. Readers read 2 to 6. A newer version
+#: is refused in one line.
+SCHEMA_VERSION = 6
+#: the version of the recipe blends store (the format version 5 made)
+RECIPE_SCHEMA = 5
 #: the version a store whose format did not change in version 5 is written as (:func:`written_schema`)
 UNCHANGED_SCHEMA = 4
 #: per-sample arrays smaller than this get one inner chunk per shard (see :func:`array_layout`)
@@ -464,9 +469,12 @@ class StoreWriter:
 
 
 def written_schema(kind: str, arrays: dict) -> int:
-    """The format version a new store of ``kind`` with ``arrays`` records: :data:`SCHEMA_VERSION` for a recipe
-    blends store (a blends store with no maps, the format version 5 made), :data:`UNCHANGED_SCHEMA` otherwise."""
-    return SCHEMA_VERSION if kind == "blends" and "diffuse" not in arrays else UNCHANGED_SCHEMA
+    """The format version a new store of ``kind`` with ``arrays`` records: :data:`RECIPE_SCHEMA` for a recipe
+    blends store (a blends store with no maps, the format version 5 made), :data:`SCHEMA_VERSION` for a renders
+    store with no maps (version 6), :data:`UNCHANGED_SCHEMA` otherwise (an older svgen reads those)."""
+    if "diffuse" in arrays or kind not in ("blends", "renders"):
+        return UNCHANGED_SCHEMA
+    return RECIPE_SCHEMA if kind == "blends" else SCHEMA_VERSION
 
 
 def finished_schema(svgen: dict) -> int:

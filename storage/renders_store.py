@@ -6,12 +6,17 @@ Layout (zarr v3 group; the sample axis is the SVBRDF, N of them, each with V vie
 |----------------|--------------------|---------|----------------------------------------------------------------|
 | image          | (N, V, R, R, 3)    | uint8   | linear LDR render, stored sRGB-encoded (see srgb8.py)          |
 | view           | (N, V, 7)          | float64 | ViewParams: light_x, light_y, zoom, rotation, shift_u, shift_v, seed |
-| normal ...     | (N, B, B, C)       | uint16  | the base maps, bytes copied from the input store (svbrdf_store) |
+| normal ...     | (N, B, B, C)       | uint16  | the base maps, bytes copied from the input store (svbrdf_store); |
+|                |                    |         | only with ``render.maps: stored`` (format version 4)           |
 | source         | (N,)               | int64   | index of the SVBRDF in its input store                         |
 | source_seed    | (N,)               | uint64  | that sample's seed in its input store                          |
 | input          | (N,)               | int16   | which input store: index into attrs["inputs"]                  |
 | preset         | (N, 2)             | int32   | base material(s): index into attrs["presets"] (-1: none)       |
 | category       | (N,)               | int16   | stress category: index into attrs["categories"] (-1: none)     |
+
+Base maps are not stored by default (format version 6, ``render.maps: inputs``): SVBRDF s's are sample ``source[s]``
+of the input store ``inputs[input[s]]``, which :class:`RendersReader` reads (storage/renders_inputs.py, checked
+against the recorded config hashes and seeds); keep the inputs beside the store. A version-4 store holds a copy.
 
 Aligned maps are not stored: a view's maps are recomputed from the stored base maps and the view's transform
 (:func:`storage.views.transform_maps`), which is exactly how the renderer made its textures, so they
@@ -38,16 +43,18 @@ from svcore.errors import StoreError
 from storage.store import ArraySpec, ChunkCache, open_store, read_region
 from storage.svbrdf_store import decode_maps, map_specs
 
+from .renders_inputs import InputMaps
 from .srgb8 import ENCODING, decode_srgb8
 from .views import VIEW_FIELDS, VIEW_LONG_NAMES, VIEW_UNITS, ViewParams
 
 KIND = "renders"
 
 
-def array_specs(views: int, res: int, base: int) -> dict[str, ArraySpec]:
+def array_specs(views: int, res: int, base: int, maps: bool = True) -> dict[str, ArraySpec]:
     """ArraySpecs of a renders store (one SVBRDF = one sample), with the per-array attributes a reader without
     svgen needs: the image's nonlinear encoding (no scale_factor: the sRGB curve is not linear), the units of
-    every view parameter."""
+    every view parameter. ``maps``: with the base maps (format version 4), or without (version 6: read from the
+    inputs)."""
     from storage.svbrdf_store import _index
 
     index = {k: _index(*a) for k, a in {
@@ -59,7 +66,7 @@ def array_specs(views: int, res: int, base: int) -> dict[str, ArraySpec]:
                            ("view_index", "y", "x", "rgb"), IMAGE_ATTRS),
         "view": ArraySpec((views, len(VIEW_FIELDS)), "float64", "ViewParams fields: " + ", ".join(VIEW_FIELDS),
                           dims=("view_index", "view_field"), attrs=view_attrs()),
-        **map_specs(base, ("base_y", "base_x")),
+        **(map_specs(base, ("base_y", "base_x")) if maps else {}),
         "source": ArraySpec((), "int64", "index of the SVBRDF in its input store", attrs=index["source"]),
         "source_seed": ArraySpec((), "uint64", "seed of that SVBRDF in its input store", attrs=index["source_seed"]),
         "input": ArraySpec((), "int16", "which input store (index into attrs.inputs)", attrs=index["input"]),
@@ -115,7 +122,9 @@ class RendersReader:
         self.attrs = dict(self.group.attrs)
         shape = self.group["image"].shape
         self.n_svbrdf, self.views, self.res = int(shape[0]), int(shape[1]), int(shape[2])
-        self.base_res = int(self.group["diffuse"].shape[1])
+        #: None where the store holds its maps (version 4); else where they are read from (version 6)
+        self.inputs = None if "diffuse" in self.group else InputMaps(self.group, path)
+        self.base_res = int(self.group["diffuse"].shape[1]) if self.inputs is None else self.inputs.size
         self._cache = ChunkCache(self.group, 0)
         self._views: np.ndarray | None = None
         self._planes: dict[int, object] = {}  # SVBRDF -> its BaseTexels
@@ -132,13 +141,21 @@ class RendersReader:
     def min_cache_bytes(self) -> int:
         """The smallest useful budget: one chunk of every array a training read touches, plus one SVBRDF's planes
         (what a single :meth:`crop` holds at once), as half of the budget."""
-        chunk = sum(math.prod(self.group[k].chunks) * self.group[k].dtype.itemsize for k in ("image", *MAP_NAMES))
+        own = ("image", *MAP_NAMES) if self.inputs is None else ("image",)
+        chunk = sum(math.prod(self.group[k].chunks) * self.group[k].dtype.itemsize for k in own)
+        chunk += 0 if self.inputs is None else self.inputs.sample_bytes
         return 2 * max(chunk, self.plane_bytes)
 
     def set_cache_bytes(self, n: int) -> None:
-        """Hold at most ``n`` bytes in the caches (half decoded chunks, half planes); evicts what is over."""
+        """Hold at most ``n`` bytes in the caches (half decoded chunks, half planes); evicts what is over. Without
+        stored maps the chunk half is shared: the images' chunks and the inputs' in proportion to a read's bytes."""
         self.cache_bytes = int(n)
         self._cache.budget = self.cache_bytes // 2
+        if self.inputs is not None:
+            img, per = math.prod(self.group["image"].chunks), self.inputs.sample_bytes
+            share = self._cache.budget * per // (img + per)
+            self.inputs.set_cache_bytes(share)
+            self._cache.budget -= share
         while self._cache._chunks and self._cache._bytes > self._cache.budget:
             self._cache._bytes -= self._cache._chunks.pop(next(iter(self._cache._chunks))).nbytes
         self.plane_cache = max(1, self.cache_bytes // 2 // self.plane_bytes)  # SVBRDFs kept as planes
@@ -149,7 +166,8 @@ class RendersReader:
     def held_bytes(self) -> int:
         """Bytes the caches hold now (decoded chunks plus planes): at most :attr:`cache_bytes` and the planes' one
         SVBRDF of rounding (what a loader's memory budget counts)."""
-        return int(self._cache._bytes) + len(self._planes) * self.plane_bytes
+        return (int(self._cache._bytes) + len(self._planes) * self.plane_bytes
+                + (0 if self.inputs is None else self.inputs.held_bytes))
 
     def __len__(self) -> int:
         return self.n_svbrdf * self.views
@@ -179,6 +197,15 @@ class RendersReader:
     def base_maps(self, s: int) -> SVBRDF:
         """Tileable base maps of SVBRDF s (float32, decoded exactly as the renderer decoded them)."""
         return _base_maps_cached(self, int(s))
+
+    def base_codes(self, s: int) -> dict[str, np.ndarray]:
+        """The uint16 codes of SVBRDF s's base maps (map name -> (B, B, C)): stored, or read from its input."""
+        if self.inputs is not None:
+            return self.inputs.codes(s)
+        try:
+            return {k: self._cache.sample(k, s) for k in MAP_NAMES}
+        except KeyError as e:
+            raise StoreError(f"{self.path}: missing base map {e}") from None
 
     def maps(self, i: int) -> SVBRDF:
         """View i's maps, aligned with :meth:`image` pixel for pixel: (R, R, C) float32 SVBRDF in screen space."""
@@ -253,8 +280,5 @@ class RendersReader:
 
 @lru_cache(maxsize=8)
 def _base_maps_cached(reader: RendersReader, s: int) -> SVBRDF:
-    # the V views of one SVBRDF share its base maps: decode them once
-    try:
-        return decode_maps({k: reader._cache.sample(k, s) for k in MAP_NAMES})
-    except KeyError as e:
-        raise StoreError(f"{reader.path}: missing base map {e}") from None
+    # the V views of one SVBRDF share its base maps: decode (and, from a recipe input, mix) them once
+    return decode_maps(reader.base_codes(s))

@@ -187,19 +187,22 @@ class SVBRDFStore:
             chunk).
         whole_shards: the cache reads whole shards (:class:`~storage.local.ChunkCache`), for a reader that will
             touch most samples.
+        source_whole_shards: a recipe store's source variants store reads whole shards (default: as
+            :class:`storage.recipe.RecipeMaps` decides; False for random access, as a training read does).
     """
 
     CACHE_BYTES = 3 << 30
 
     def __init__(self, path, kind: str | tuple[str, ...] = KINDS, cache_bytes: int | None = None,
-                 whole_shards: bool = False):
+                 whole_shards: bool = False, source_whole_shards: bool | None = None):
         self.path = path
         self.group = open_store(path, kind)
         self.attrs = dict(self.group.attrs)
         self.kind = self.attrs["svgen"]["kind"]
         self.presets: list[str] = list(self.attrs.get("presets", []))
         #: a recipe blends store's mixer (storage.recipe): no maps stored, each blend mixed from its parents on read
-        self.recipe = RecipeMaps(self.group, path, _open_variants) if is_recipe(self.attrs) else None
+        self.recipe = (RecipeMaps(self.group, path, _open_variants, source_whole_shards) if is_recipe(self.attrs)
+                       else None)
         self.size = self.recipe.size if self.recipe else int(self.group["diffuse"].shape[1])
         self._cache = ChunkCache(self.group, self.CACHE_BYTES if cache_bytes is None else cache_bytes, whole_shards)
 

@@ -70,7 +70,7 @@ def test_a_recipe_store_is_version_5_with_no_maps_and_a_stored_one_is_version_4(
 
     recipe, stored = open_store(stores / "scalar_recipe.zarr", "blends"), open_store(stores / "scalar_stored.zarr",
                                                                                        "blends")
-    assert recipe.attrs["svgen"]["schema_version"] == S.SCHEMA_VERSION == 5
+    assert recipe.attrs["svgen"]["schema_version"] == S.RECIPE_SCHEMA == 5
     assert stored.attrs["svgen"]["schema_version"] == S.UNCHANGED_SCHEMA == 4  # what an older svgen reads
     assert not set(MAP_NAMES) & set(recipe.array_keys()) and set(MAP_NAMES) <= set(stored.array_keys())
     assert recipe["alpha"].dtype == np.float64 and recipe["mask_seed"].shape == (10, 4)

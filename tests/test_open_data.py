@@ -47,7 +47,11 @@ def stores(tmp_path_factory):
              "2", "--workers", "0"],
             ["stress", d / "stress.zarr", "--config-preset", "tiny", "--per-category", "1", "--category",
              "highlight_edge", "--category", "print_pattern", "--size", "64", "--workers", "0"],
+            # renders.zarr: a self-contained store with its maps (render.maps: stored, what plain xr.open_zarr
+            # decodes, a store to publish); renders_inputs.zarr: the default, no maps (storage/renders_inputs.py)
             ["render", d / "variants.zarr", d / "blends.zarr", d / "renders.zarr", "--config-preset", "tiny",
+             "--views", "2", "--res", "16", "--chunk", "2", "--workers", "0", "--set", "maps=stored"],
+            ["render", d / "variants.zarr", d / "recipe.zarr", d / "renders_inputs.zarr", "--config-preset", "tiny",
              "--views", "2", "--res", "16", "--chunk", "2", "--workers", "0"]]
     rng = np.random.default_rng(4)
     for k in range(2):
@@ -160,7 +164,7 @@ def test_imported_renders_store_opens_with_xarray(stores, tmp_path):
 
 def test_every_array_has_dimension_names_and_the_store_metadata_only_changed(stores):
     """dimension_names and attributes live in zarr.json; chunk files are what the manifest lists."""
-    for name in ("variants", "blends", "recipe", "stress", "renders", "imported"):
+    for name in ("variants", "blends", "recipe", "stress", "renders", "renders_inputs", "imported"):
         g = zarr.open_group(stores / f"{name}.zarr", mode="r")
         for arr_name, arr in g.arrays():
             dims = arr.metadata.dimension_names
@@ -231,7 +235,7 @@ def test_stores_record_the_code_digest_of_their_stage_not_the_package_version(st
 
 
 # -- the dataset card ----------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("name", ["variants", "blends", "recipe", "stress", "renders", "imported"])
+@pytest.mark.parametrize("name", ["variants", "blends", "recipe", "stress", "renders", "renders_inputs", "imported"])
 def test_every_finished_store_has_its_card(stores, name, svgen_cli):
     from storage.store import card_text
 
@@ -242,7 +246,7 @@ def test_every_finished_store_has_its_card(stores, name, svgen_cli):
     assert front["license"] == "cc-by-4.0" and front["task_categories"]
     attrs = json.loads((path / "zarr.json").read_text())["attributes"]
     n = attrs["svgen"]["n"]
-    views = zarr.open_group(path, mode="r")["image"].shape[1] if name == "renders" else 1
+    views = zarr.open_group(path, mode="r")["image"].shape[1] if name.startswith("renders") else 1
     assert sum(s["num_examples"] for s in front["dataset_info"]["splits"]) <= n * views
     labels = {f"{i}_name" for i in ("preset", "category") if i in attrs["svgen"]["arrays"]}  # storage.labels
     assert {f["name"] for f in front["dataset_info"]["features"]} == set(attrs["svgen"]["arrays"]) | labels
@@ -251,13 +255,13 @@ def test_every_finished_store_has_its_card(stores, name, svgen_cli):
         assert section in text, section
     if "seed" in attrs["config"]:
         assert f"seed: {attrs['config']['seed']}" in text  # the parameters as a params.yaml section
-    if name == "renders":
+    if name.startswith("renders"):
         assert "## Pairing an image with its maps" in text and "ss = max(1, ceil(zoom * B / R))" in text
     code, out = svgen_cli("card", path)
     assert code == 0 and out == text
 
 
-@pytest.mark.parametrize("name", ["variants", "blends", "recipe", "stress", "renders", "imported"])
+@pytest.mark.parametrize("name", ["variants", "blends", "recipe", "stress", "renders", "renders_inputs", "imported"])
 def test_the_cards_params_section_is_the_stages_settings(stores, name):
     """The card prints a store's params.yaml section from the store alone (storage imports no pipeline config,
     #41): the recorded config less storage.card.NOT_SETTINGS. What remains must be exactly the settings class's

@@ -34,6 +34,7 @@ from svcore.seeds import stream_rng
 
 from .page import MAP_ORDER, PER_ROW, Card, Layout, Section, page
 from storage.recipe import is_recipe
+from storage.renders_store import RendersReader
 from storage.store import is_object_url, open_store, read_region, refuse_inside
 from storage.svbrdf_store import SVBRDFStore
 
@@ -111,16 +112,19 @@ class _Source:
         self.attrs = dict(self.group.attrs)
         self.kind = self.attrs["svgen"]["kind"]
         # a recipe blends store (storage.recipe) holds no maps: its reader mixes them from the variants store
-        self.mixer = SVBRDFStore(path, "blends") if is_recipe(self.attrs) else None
-        self.n = len(self.mixer) if self.mixer else int(self.group["diffuse"].shape[0])
+        # as does a renders store without maps (format version 6): its reader reads them from its input stores
+        self.mixer = SVBRDFStore(path, "blends") if is_recipe(self.attrs) else (
+            RendersReader(path, cache_bytes=0) if self.kind == "renders" and "diffuse" not in self.group else None)
+        self.n = len(self.mixer) if is_recipe(self.attrs) else int(self.group["image" if self.kind == "renders"
+                                                                            else "diffuse"].shape[0])
         self.presets = list(self.attrs.get("presets", []))
         self.param_names = self.attrs.get("param_names", {})
         self.materials = {r.get("preset", r.get("name")): r for r in self.attrs.get("materials", [])}
         self.views = min(views, int(self.group["image"].shape[1])) if self.kind == "renders" else 0
         arrays = ([] if self.mixer else list(MAP_NAMES)) + (["image"] if self.views else [])  # every view is read
         self.sample_bytes = sum(int(np.prod(self.group[k].shape[1:])) * self.group[k].dtype.itemsize for k in arrays)
-        if self.mixer:  # the mixed maps' codes, held like read ones
-            self.sample_bytes += self.mixer.size ** 2 * N_CHANNELS * 2
+        if self.mixer:  # the mixed (or input) maps' codes, held like read ones
+            self.sample_bytes += self._map_size() ** 2 * N_CHANNELS * 2
         self._inputs: dict[int, object] = {}
 
     def read(self, run: list[int]) -> dict[str, np.ndarray]:
@@ -132,11 +136,15 @@ class _Source:
         d = {k: read_region(self.group, k, a, b) for k in names}
         if self.mixer:  # only the shown blends are mixed (the block's rows between them stay zero: never shown)
             for i in run:
-                for k, v in self.mixer.codes(i).items():
+                codes = self.mixer.base_codes(i) if self.kind == "renders" else self.mixer.codes(i)
+                for k, v in codes.items():
                     d.setdefault(k, np.zeros((b - a, *v.shape), v.dtype))[i - a] = v
         if self.views:
             d["image"] = read_region(self.group, "image", a, b)[:, :self.views]
         return d
+
+    def _map_size(self) -> int:
+        return self.mixer.base_res if self.kind == "renders" else self.mixer.size
 
     def _names(self, row) -> list[str]:
         return [self.presets[p] for p in row if p >= 0]

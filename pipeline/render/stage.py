@@ -113,7 +113,8 @@ def _chunk_task(c: int, threads: int, *, partial: str, inputs: tuple[str, ...], 
         radius = tuple(raw["light_radius"][j]) if np.isfinite(raw["light_radius"][j]).all() else None
         _, vw = render_svbrdf(scene, maps, s, cfg, radius, out=images[j])
         views.append(vw)
-    data = {"image": images, "view": np.stack(views), **{k: raw[k] for k in MAP_NAMES},
+    stored = {k: raw[k] for k in MAP_NAMES} if cfg.maps == "stored" else {}  # else read from the inputs
+    data = {"image": images, "view": np.stack(views), **stored,
             "source": raw["index"], "source_seed": raw["seed"], "input": raw["input"], "preset": raw["preset"],
             "category": raw["category"]}
     write_chunk(partial, c, start, data)
@@ -152,6 +153,7 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
                               "zoom": list(cfg.zoom), "zoom_law": "log-uniform", "rotation": "U(0, 2 pi)",
                               "shift": "U(0, 1)^2 tiles", "seed": "derive_seed(seed, 'render', svbrdf, view)"},
         "aligned_maps": "recomputed: storage.views.transform_maps(base maps, view, res)",
+        **({} if cfg.maps == "stored" else {"base_maps": BASE_MAPS_NOTE}),
     }
 
     def attrs(out):  # the inputs' paths relative to the output: the same strings for any spelling of them
@@ -162,9 +164,16 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
     config = {**{k: v for k, v in cfg.as_dict().items() if k not in cfg.dropped_keys()},
               "inputs": [{k: v for k, v in d.items() if k != "path"} for d in src.describe()],
               "integrator": scene_module.integrator_name(cfg.light)}
-    return Stage(KIND, n, cfg.chunk, array_specs(cfg.views, cfg.res, src.size), config, attrs, _chunk_task,
+    return Stage(KIND, n, cfg.chunk, array_specs(cfg.views, cfg.res, src.size, cfg.maps == "stored"), config, attrs, _chunk_task,
                  dict(inputs=_paths(inputs), cfg=cfg, n=n), desc="render", unit="view", units_per_sample=cfg.views,
                  inputs=_paths(inputs), finish=record_split)
+
+
+#: the group attribute of a renders store without maps (format version 6): where a reader finds them
+BASE_MAPS_NOTE = ("not stored: SVBRDF s's base maps are sample source[s] of the input store inputs[input[s]] (its "
+                  "path relative to this store's folder; a recipe blends store mixes them from its variants store), "
+                  "the codes it was rendered from; svgen's readers check the inputs' config hashes and seeds. Keep "
+                  "the input stores beside this one")
 
 
 def record_split(partial) -> dict:
