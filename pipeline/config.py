@@ -180,7 +180,8 @@ class RenderConfig(StageConfig):
 
     SECTION: ClassVar[str] = "render"
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
-        "default": {}, "tiny": {"views": 2, "res": 64, "chunk": 2}, "paper": {"views": 10, "res": 288}}
+        "default": {}, "tiny": {"views": 2, "res": 64, "chunk": 2},
+        "paper": {"views": 10, "res": 288, "maps": "inputs"}}
 
     views: int = Field(10, ge=1)
     """Views per SVBRDF (the paper: 10), each with its own light offset, zoom, rotation, shift and seed."""
@@ -208,12 +209,13 @@ class RenderConfig(StageConfig):
     default (the same bytes as before the key), so a cuda_ad_rgb store has a config hash of its own: CUDA's
     arithmetic need not match LLVM's bit for bit (docs/GPU.md)."""
 
-    maps: Literal["inputs", "stored"] = "inputs"
-    """inputs: the renders store holds no maps; a reader reads SVBRDF s's base maps from the input store it records
-    (sample ``source[s]`` of ``inputs[input[s]]``; a recipe blends store mixes them from its variants store), checked
-    against the inputs' config hashes and seeds: the same codes, no map bytes (about 22 of the paper's 57 GB); keep
-    the inputs beside it. stored: copy the maps into the store too (a self-contained store, format version 4); left
-    out of the recorded config at stored (the same bytes as before the key)."""
+    maps: Literal["stored", "inputs"] = "stored"
+    """stored: copy each SVBRDF's base maps into the renders store (a self-contained store, to move, upload or
+    publish alone; format version 4; left out of the recorded config, the same bytes as before the key). inputs (the
+    paper preset's): store no maps; readers read SVBRDF s's from the input store it records (sample ``source[s]`` of
+    ``inputs[input[s]]``; a recipe blends store mixes them from its variants store), checked against the inputs'
+    config hashes, sizes and seeds: the same codes, without the paper scale's 22 GB of copies (format version 6);
+    keep the inputs beside it."""
     views_per_launch: int = Field(1, ge=1)
     """Views of one SVBRDF rendered by one Mitsuba call (point flash only; at most ``views`` are used). 1 renders
     each view on its own. More shares the call's fixed cost (tracing the Python integrator and BSDF, the launch):

@@ -19,6 +19,7 @@ otherwise one line says so. Keep the two stores side by side (the DVC pipeline's
 from __future__ import annotations
 
 import os
+import posixpath
 from pathlib import Path
 
 import numpy as np
@@ -41,9 +42,13 @@ def is_recipe(attrs: dict) -> bool:
 
 def source_path(path, recorded: str) -> str:
     """Where the input recorded as ``recorded`` by the store at ``path`` is: a URL or an absolute path as recorded,
-    a relative one from the store's folder (the inverse of :func:`storage.local.recorded_path`)."""
+    a relative one from the store's folder (the inverse of :func:`storage.local.recorded_path`), on the object store
+    too where ``path`` is a URL (a folder of stores uploaded together keeps its relative records)."""
     if is_object_url(recorded) or os.path.isabs(recorded):
         return recorded
+    if is_object_url(path):
+        head, key = str(path).rstrip("/").split("://", 1)
+        return f"{head}://{posixpath.normpath(posixpath.join(posixpath.dirname(key), recorded))}"
     return str(Path(local_path(path)).resolve().parent / recorded)
 
 

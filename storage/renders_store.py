@@ -14,7 +14,7 @@ Layout (zarr v3 group; the sample axis is the SVBRDF, N of them, each with V vie
 | preset         | (N, 2)             | int32   | base material(s): index into attrs["presets"] (-1: none)       |
 | category       | (N,)               | int16   | stress category: index into attrs["categories"] (-1: none)     |
 
-Base maps are not stored by default (format version 6, ``render.maps: inputs``): SVBRDF s's are sample ``source[s]``
+Base maps are not stored with ``render.maps: inputs`` (format version 6, the paper preset's): SVBRDF s's are sample ``source[s]``
 of the input store ``inputs[input[s]]``, which :class:`RendersReader` reads (storage/renders_inputs.py, checked
 against the recorded config hashes and seeds); keep the inputs beside the store. A version-4 store holds a copy.
 

@@ -47,12 +47,12 @@ def stores(tmp_path_factory):
              "2", "--workers", "0"],
             ["stress", d / "stress.zarr", "--config-preset", "tiny", "--per-category", "1", "--category",
              "highlight_edge", "--category", "print_pattern", "--size", "64", "--workers", "0"],
-            # renders.zarr: a self-contained store with its maps (render.maps: stored, what plain xr.open_zarr
-            # decodes, a store to publish); renders_inputs.zarr: the default, no maps (storage/renders_inputs.py)
+            # renders.zarr: the default, a self-contained store with its maps (what plain xr.open_zarr decodes);
+            # renders_inputs.zarr: no maps (render.maps: inputs, the paper preset's: storage/renders_inputs.py)
             ["render", d / "variants.zarr", d / "blends.zarr", d / "renders.zarr", "--config-preset", "tiny",
-             "--views", "2", "--res", "16", "--chunk", "2", "--workers", "0", "--set", "maps=stored"],
+             "--views", "2", "--res", "16", "--chunk", "2", "--workers", "0"],
             ["render", d / "variants.zarr", d / "recipe.zarr", d / "renders_inputs.zarr", "--config-preset", "tiny",
-             "--views", "2", "--res", "16", "--chunk", "2", "--workers", "0"]]
+             "--views", "2", "--res", "16", "--chunk", "2", "--workers", "0", "--set", "maps=inputs"]]
     rng = np.random.default_rng(4)
     for k in range(2):
         matsynth(d / "src", f"M{k}", 16, rng.random((16, 16, 3)), rng.random((16, 16)), height_field(16)[0])

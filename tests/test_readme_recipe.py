@@ -53,6 +53,7 @@ def test_paper_recipe_resolves_to_the_paper_scale(tmp_path):
     variants = sample.per_preset * len(list(presets()))
     assert abs(variants - 1850) / 1850 < 0.05, variants          # the paper: ~1,850 variants
     assert blend.count == 20000 and render.views == 10 and render.res == 288
+    assert render.maps == "inputs"  # the paper preset's: the renders store holds no copy of the maps (docs/DATA.md)
     assert (train.preset, train.model.base_width, train.model.levels) == ("paper", 64, 8)
     assert (train.optim.lr, train.optim.iterations, train.data.crop) == (2e-5, 400_000, 256)
     assert train.optim.schedule == "constant" and train.optim.grad_clip == 0  # the paper's optimiser, unchanged

@@ -344,3 +344,26 @@ def test_file_url_is_the_plain_local_store(tmp_path):
     run_sample(f"file://{tmp_path}/b/v.zarr", cfg, workers=0)
     assert tree_digest(tmp_path / "a" / "v.zarr") == tree_digest(tmp_path / "b" / "v.zarr")
     assert open_store(f"file://{tmp_path}/b/v.zarr", "variants").attrs["svgen"]["complete"] is True
+
+
+def test_stores_uploaded_together_read_their_inputs_on_s3(s3, tmp_path):
+    """A folder of stores uploaded as it is keeps its relative records: a renders store without maps (format 6) reads
+    its maps from its inputs in the bucket, a recipe blends input mixing them from its variants there too."""
+    from pipeline.blend import run_blend
+    from pipeline.config import BlendConfig, RenderConfig
+    from pipeline.render.stage import run_render
+    from storage.renders_store import RendersReader
+
+    d = tmp_path / "up"
+    run_sample(d / "v.zarr", build(SampleConfig, "tiny", presets=SAMPLE["presets"], per_preset=1), workers=0)
+    run_blend(d / "v.zarr", d / "b.zarr", build(BlendConfig, "tiny", count=2), workers=0)
+    run_render([str(d / "v.zarr"), str(d / "b.zarr")], str(d / "r.zarr"),
+               build(RenderConfig, "tiny", res=32, views=1, maps="inputs"), workers=0)
+    for name in ("v.zarr", "b.zarr", "r.zarr"):
+        s3.fs().put(str(d / name), f"{s3.bucket}/up/{name}", recursive=True)
+    remote, local = RendersReader(s3.url("up/r.zarr")), RendersReader(d / "r.zarr")
+    assert remote.inputs is not None and [st.path for st in remote.inputs.stores] == [s3.url("up/v.zarr"),
+                                                                                       s3.url("up/b.zarr")]
+    for s in range(local.n_svbrdf):
+        got, want = remote.base_codes(s), local.base_codes(s)
+        assert all(np.array_equal(got[k], want[k]) for k in want), s

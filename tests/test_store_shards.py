@@ -70,8 +70,8 @@ def test_one_shard_object_per_array_per_task(store, request):
     path = Path(request.getfixturevalue(store))
     g = open_store(path, ("variants", "renders"))
     n, tasks = g.attrs["svgen"]["n"], -(-g.attrs["svgen"]["n"] // CHUNK)
-    # 4 since #42 (same layout); version 5 changed only the blends store, 6 made renders without maps (same layout)
-    assert g.attrs["svgen"]["schema_version"] == (6 if store == "reference" else 4) and g.attrs["svgen"]["chunk"] == CHUNK
+    # 4 since #42 (same layout); version 5 changed only the blends store, 6 only renders without maps
+    assert g.attrs["svgen"]["schema_version"] == 4 and g.attrs["svgen"]["chunk"] == CHUNK
     man = json.loads((path / MANIFEST).read_text())
     for name, arr in g.arrays():
         assert arr.shards is not None and arr.shards[0] == CHUNK, (name, arr.shards)

@@ -1,5 +1,5 @@
-"""Store format versions (#42): renders are written as version 6 (no maps: tests/test_render_maps_inputs.py), or 4 with
-``render.maps: stored`` (version 5 changed only the blends store: tests/test_blend_recipe.py); a version-3 renders
+"""Store format versions (#42): renders are written as version 4, or 6 without maps (``render.maps: inputs``, the paper
+preset's: tests/test_render_maps_inputs.py; version 5 changed only the blends store: tests/test_blend_recipe.py); a version-3 renders
 store is still read (its images agree with its own maps:
 docs/DATA.md); a newer version is refused in one line; a partial version-3 render (another integrator) is not resumed
 into a mix of both renders."""
@@ -34,16 +34,16 @@ def _set_version(path, v: int) -> None:
     zarr.consolidate_metadata(path)
 
 
-def test_renders_are_version_6_or_4_with_maps_and_a_version_3_store_is_still_read(variants, tmp_path):
-    new, stored = tmp_path / "new.zarr", tmp_path / "stored.zarr"
+def test_renders_are_version_4_or_6_without_maps_and_a_version_3_store_is_still_read(variants, tmp_path):
+    new, no_maps = tmp_path / "new.zarr", tmp_path / "no_maps.zarr"
     run_render(variants, new, build(RenderConfig, "tiny", **CFG), workers=0)
-    run_render(variants, stored, build(RenderConfig, "tiny", **CFG, maps="stored"), workers=0)
-    assert S.SCHEMA_VERSION == 6 and open_store(new, "renders").attrs["svgen"]["schema_version"] == 6
-    assert S.UNCHANGED_SCHEMA == 4 and open_store(stored, "renders").attrs["svgen"]["schema_version"] == 4
+    run_render(variants, no_maps, build(RenderConfig, "tiny", **CFG, maps="inputs"), workers=0)
+    assert S.UNCHANGED_SCHEMA == 4 and open_store(new, "renders").attrs["svgen"]["schema_version"] == 4
+    assert S.SCHEMA_VERSION == 6 and open_store(no_maps, "renders").attrs["svgen"]["schema_version"] == 6
     old = tmp_path / "v3.zarr"
     with pytest.MonkeyPatch.context() as m:  # a store as svgen wrote it before #42: Mitsuba's direct, schema 3
         m.setattr(scene_module, "integrator_name", lambda light: "direct")
-        run_render(variants, old, build(RenderConfig, "tiny", **CFG, maps="stored"), workers=0)
+        run_render(variants, old, build(RenderConfig, "tiny", **CFG), workers=0)
     _set_version(old, 3)  # version 3's layout is version 4's: only the number differs
     r = RendersReader(old)
     assert r.group.attrs["svgen"]["schema_version"] == 3
