@@ -136,3 +136,18 @@ def test_an_input_whose_seeds_differ_is_refused(stores, tmp_path):
     g["seed"][:] = seeds[::-1]
     with pytest.raises(StoreError, match="seeds of .* are not the ones it rendered"):
         RendersReader(tmp_path / "r_inputs.zarr")
+
+
+def test_svtrain_fits_and_evaluates_from_a_store_without_maps(stores, tmp_path):
+    """Training's loader workers (forked readers) read the maps from the inputs, and so does evaluation."""
+    from test_train_cli import run as svtrain
+
+    code, _, err = svtrain("fit", "--out", tmp_path / "run", "--store", stores / "r_inputs.zarr", "--iterations", 2,
+                           "--set", "model.base_width=4", "--set", "model.max_width=8", "--set", "model.levels=3",
+                           "--set", "data.crop=16", "--set", "data.holdout=0.5", "--set", "optim.batch_size=2",
+                           "--workers", "1", "--no-compile")
+    assert code == 0, err
+    code, _, err = svtrain("eval", "--checkpoint", tmp_path / "run", "--store", stores / "r_inputs.zarr", "--limit",
+                           4, "--out", tmp_path / "eval")
+    assert code == 0, err
+    assert (tmp_path / "eval" / "metrics.json").exists()
