@@ -179,11 +179,14 @@ def project(tmp_path_factory, renders):
     params["eval"]["limit"] = 16
     (d / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
     (d / "data").mkdir()
-    shutil.copytree(renders, d / "data" / "renders.zarr")
-    # the repository ignores data/ (its stages write it); here the store is a `dvc add`-ed input: git keeps its .dvc
+    # the renders store and its inputs (the fit and eval stages name them too: a store without maps reads them)
+    for name in ("variants.zarr", "blends.zarr", "renders.zarr"):
+        shutil.copytree(renders.parent / name, d / "data" / name)
+    # the repository ignores data/ (its stages write it); here the stores are `dvc add`-ed inputs: git keeps their .dvc
     gi = d / ".gitignore"
     gi.write_text("".join(line for line in gi.read_text().splitlines(True) if line.strip() != "/data/"))
-    _sh("git init -q && dvc add -q data/renders.zarr && git add -A && git commit -qm init", d, env)
+    _sh("git init -q && dvc add -q data/variants.zarr data/blends.zarr data/renders.zarr && git add -A && "
+        "git commit -qm init", d, env)
     return d, env
 
 

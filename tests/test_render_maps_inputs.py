@@ -5,6 +5,7 @@ xarray, the gallery); the images are the same bytes; an input that is missing or
 one line."""
 from __future__ import annotations
 
+import json
 import shutil
 
 import numpy as np
@@ -150,4 +151,4 @@ def test_svtrain_fits_and_evaluates_from_a_store_without_maps(stores, tmp_path):
     code, _, err = svtrain("eval", "--checkpoint", tmp_path / "run", "--store", stores / "r_inputs.zarr", "--limit",
                            4, "--out", tmp_path / "eval")
     assert code == 0, err
-    assert (tmp_path / "eval" / "metrics.json").exists()
+    assert json.loads((tmp_path / "eval" / "eval.json").read_text())["samples"]
