@@ -60,9 +60,9 @@ def open_dataset(path: str | os.PathLike, storage_options: dict | None = None):
     kw = {"storage_options": storage_options} if storage_options else {}
     ds = xr.open_zarr(str(path), chunks={"sample": shard}, **kw)
     if is_recipe(dict(g.attrs)):  # no stored maps: mixed from the source variants store, lazily, shard by shard
-        ds = ds.assign(_recipe_maps(path, shard))
+        ds = ds.assign(_lazy_maps(path, shard))
     elif g.attrs["svgen"]["kind"] == "renders" and "diffuse" not in g:  # format 6: read from its inputs, lazily
-        ds = ds.assign(_recipe_maps(path, shard, renders=True))
+        ds = ds.assign(_lazy_maps(path, shard, renders=True))
     for name in list(ds.data_vars):
         var = ds[name]
         if "scale_factor" in var.encoding and var.dtype == np.float64:
@@ -85,7 +85,7 @@ def open_dataset(path: str | os.PathLike, storage_options: dict | None = None):
     return ds
 
 
-def _recipe_maps(path, shard: int, renders: bool = False) -> dict:
+def _lazy_maps(path, shard: int, renders: bool = False) -> dict:
     """The four maps of a recipe blends store (:mod:`storage.recipe`) as lazy float32 variables, one dask task
     per shard mixing its blends, decoded from the codes a stored-maps store holds, with its CF encoding (so
     ``to_netcdf`` writes the codes) and the same attributes. ``renders``: the base maps of a renders store without

@@ -72,13 +72,13 @@ from .objstore import is_object_url, local_path, normalize_url
 #: seeds, mixed on read, storage/recipe.py), `svgen blend`'s default. Only a recipe store is written as version 5:
 #: every other store's format is version 4's, and it records 4, so an older svgen still reads it. Readers read 2 to
 #: 5 (a blends store with maps, of any version, is read as it always was); 6: the renders store without maps (its
-#: readers read each SVBRDF's base maps from the input stores it records, storage/renders_store.py), `svgen
-#: render`'s default; a renders store with maps is still written as version 4. Readers read 2 to 6. A newer version
-#: is refused in one line.
+#: readers read each SVBRDF's base maps from the input stores it records, storage/renders_inputs.py), written with
+#: ``render.maps: inputs`` (the paper preset's); a renders store with maps is still written as version 4. Readers
+#: read 2 to 6. A newer version is refused in one line.
 SCHEMA_VERSION = 6
 #: the version of the recipe blends store (the format version 5 made)
 RECIPE_SCHEMA = 5
-#: the version a store whose format did not change in version 5 is written as (:func:`written_schema`)
+#: the version a store whose format did not change in versions 5 and 6 is written as (:func:`written_schema`)
 UNCHANGED_SCHEMA = 4
 #: per-sample arrays smaller than this get one inner chunk per shard (see :func:`array_layout`)
 SMALL_SAMPLE_BYTES = 4096
@@ -909,6 +909,12 @@ class ChunkCache:
             self._chunks[key] = a
             self._bytes += a.nbytes
         return self._chunks[key]
+
+    def resize(self, budget_bytes: int) -> None:
+        """Keep at most ``budget_bytes`` from now on, evicting the oldest chunks that are over it."""
+        self.budget = max(0, int(budget_bytes))
+        while self._chunks and self._bytes > self.budget:
+            self._bytes -= self._chunks.pop(next(iter(self._chunks))).nbytes
 
     def sample(self, name: str, i: int) -> np.ndarray:
         """Sample ``i`` of array ``name``."""

@@ -78,9 +78,7 @@ class InputMaps:
         """Share ``n`` bytes among the inputs' chunk caches (evicting what is over)."""
         caches = self.caches
         for c in caches:
-            c.budget = max(0, int(n)) // max(1, len(caches))
-            while c._chunks and c._bytes > c.budget:
-                c._bytes -= c._chunks.pop(next(iter(c._chunks))).nbytes
+            c.resize(max(0, int(n)) // max(1, len(caches)))
 
     @property
     def held_bytes(self) -> int:

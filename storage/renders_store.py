@@ -14,9 +14,10 @@ Layout (zarr v3 group; the sample axis is the SVBRDF, N of them, each with V vie
 | preset         | (N, 2)             | int32   | base material(s): index into attrs["presets"] (-1: none)       |
 | category       | (N,)               | int16   | stress category: index into attrs["categories"] (-1: none)     |
 
-Base maps are not stored with ``render.maps: inputs`` (format version 6, the paper preset's): SVBRDF s's are sample ``source[s]``
-of the input store ``inputs[input[s]]``, which :class:`RendersReader` reads (storage/renders_inputs.py, checked
-against the recorded config hashes and seeds); keep the inputs beside the store. A version-4 store holds a copy.
+Base maps are not stored with ``render.maps: inputs`` (format version 6, the paper preset's): SVBRDF s's are sample
+``source[s]`` of the input store ``inputs[input[s]]``, which :class:`RendersReader` reads (storage/renders_inputs.py,
+checked against the recorded config hashes and seeds); keep the inputs beside the store. A version-4 store holds a
+copy.
 
 Aligned maps are not stored: a view's maps are recomputed from the stored base maps and the view's transform
 (:func:`storage.views.transform_maps`), which is exactly how the renderer made its textures, so they
@@ -150,14 +151,12 @@ class RendersReader:
         """Hold at most ``n`` bytes in the caches (half decoded chunks, half planes); evicts what is over. Without
         stored maps the chunk half is shared: the images' chunks and the inputs' in proportion to a read's bytes."""
         self.cache_bytes = int(n)
-        self._cache.budget = self.cache_bytes // 2
+        chunks, share = self.cache_bytes // 2, 0
         if self.inputs is not None:
             img, per = math.prod(self.group["image"].chunks), self.inputs.sample_bytes
-            share = self._cache.budget * per // (img + per)
+            share = chunks * per // (img + per)
             self.inputs.set_cache_bytes(share)
-            self._cache.budget -= share
-        while self._cache._chunks and self._cache._bytes > self._cache.budget:
-            self._cache._bytes -= self._cache._chunks.pop(next(iter(self._cache._chunks))).nbytes
+        self._cache.resize(chunks - share)
         self.plane_cache = max(1, self.cache_bytes // 2 // self.plane_bytes)  # SVBRDFs kept as planes
         while len(self._planes) > self.plane_cache:
             self._planes.pop(next(iter(self._planes)))

@@ -164,7 +164,8 @@ def render_stage(inputs, cfg: RenderConfig) -> Stage:
     config = {**{k: v for k, v in cfg.as_dict().items() if k not in cfg.dropped_keys()},
               "inputs": [{k: v for k, v in d.items() if k != "path"} for d in src.describe()],
               "integrator": scene_module.integrator_name(cfg.light)}
-    return Stage(KIND, n, cfg.chunk, array_specs(cfg.views, cfg.res, src.size, cfg.maps == "stored"), config, attrs, _chunk_task,
+    specs = array_specs(cfg.views, cfg.res, src.size, cfg.maps == "stored")
+    return Stage(KIND, n, cfg.chunk, specs, config, attrs, _chunk_task,
                  dict(inputs=_paths(inputs), cfg=cfg, n=n), desc="render", unit="view", units_per_sample=cfg.views,
                  inputs=_paths(inputs), finish=record_split)
 
