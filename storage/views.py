@@ -143,9 +143,6 @@ def transform_planes(base_planes: "BaseTexels | list", base: int, view: ViewPara
     texels = base_planes if isinstance(base_planes, BaseTexels) else BaseTexels.of_planes(base_planes, base)
     if texels.base != base:
         raise ValueError(f"the base texels are {texels.base}^2, not {base}^2")
-    packets = TEXEL_STRIDE // 4
-    packet_t = mi.Array4f  # 4 floats gathered at once, in the variant's own array type (llvm or cuda)
-    ss = supersampling(view, res, base)
     if window is None:
         pix = dr.arange(mi.UInt32, res * res)
         row = pix // res
@@ -156,11 +153,38 @@ def transform_planes(base_planes: "BaseTexels | list", base: int, view: ViewPara
         row = pix // size
         col = pix - row * size + dr.opaque(mi.UInt32, c0w)
         row = row + dr.opaque(mi.UInt32, r0w)
-    c = dr.opaque(mi.Float, math.cos(view.rotation))
-    s = dr.opaque(mi.Float, math.sin(view.rotation))
-    zoom = dr.opaque(mi.Float, view.zoom)
-    su = dr.opaque(mi.Float, view.shift_u)
-    sv = dr.opaque(mi.Float, view.shift_v)
+    out = view_texel(texels, view_inputs(view), supersampling(view, res, base), res, row, col)
+    dr.eval(*out)
+    return out
+
+
+def view_inputs(view: ViewParams) -> tuple:
+    """The view's transform as opaque kernel inputs (cos, sin of the rotation, zoom, shift_u, shift_v): one compiled
+    kernel serves every view of a given (res, base, ss)."""
+    return tuple(dr.opaque(mi.Float, v) for v in (math.cos(view.rotation), math.sin(view.rotation), view.zoom,
+                                                  view.shift_u, view.shift_v))
+
+
+def view_texel(texels: BaseTexels, inputs: tuple, ss: int, res: int, row, col, active=True) -> list:
+    """The view's maps at output pixels (row, col) of a res x res picture: :func:`transform_planes`'s arithmetic,
+    which the renderer's BSDF also runs inside its own kernel for its pixel (:class:`pipeline.render.bsdf.ViewGGXBSDF`):
+    one function, so the two give the same floats.
+
+    Args:
+        texels: the base maps.
+        inputs: :func:`view_inputs` of the view.
+        ss: subsamples per axis (:func:`supersampling`).
+        res: output side length.
+        row, col: mi.UInt32 output pixel indices (numpy row 0 = image top).
+        active: lanes to gather for (the others get 0).
+
+    Returns:
+        10 mi.Float (lazy): normal xyz (rotated, renormalised), then diffuse, specular and roughness clipped to [0, 1].
+    """
+    base = texels.base
+    packets = TEXEL_STRIDE // 4
+    packet_t = mi.Array4f  # 4 floats gathered at once, in the variant's own array type (llvm or cuda)
+    c, s, zoom, su, sv = inputs
     acc = [mi.Float(0.0) for _ in range(N_CHANNELS)]
     for i in range(ss):
         for j in range(ss):
@@ -188,16 +212,14 @@ def transform_planes(base_planes: "BaseTexels | list", base: int, view: ViewPara
                 # the corner's channels in packets of 4 (channel k is component k % 4 of packet k // 4); each
                 # channel's sum keeps the order of one gather per plane: the same floats
                 texel = [g[q] for p in range(packets)
-                         for g in (dr.gather(packet_t, texels.buf, idx * packets + p),) for q in range(4)]
+                         for g in (dr.gather(packet_t, texels.buf, idx * packets + p, active),) for q in range(4)]
                 for k in range(N_CHANNELS):
                     acc[k] = dr.fma(texel[k], w, acc[k])
     if ss > 1:
         acc = [a * (1.0 / (ss * ss)) for a in acc]
     n = dr.normalize(mi.Vector3f(c * acc[0] - s * acc[1], s * acc[0] + c * acc[1],
                                  dr.maximum(acc[2], NORMAL_Z_MIN)))
-    out = [n.x, n.y, n.z] + [dr.clip(a, 0.0, 1.0) for a in acc[3:]]
-    dr.eval(*out)
-    return out
+    return [n.x, n.y, n.z] + [dr.clip(a, 0.0, 1.0) for a in acc[3:]]
 
 
 def to_planes(packed: np.ndarray) -> np.ndarray:

@@ -47,8 +47,9 @@ def test_film_free_equals_the_film(light, sampler):
         film = np.asarray(scene.render_film(view.seed), np.float32).reshape(res, res, 3)
         assert free.max() > 0.1 and (free > 0).mean() > 0.9  # lit: there is something to compare
         if not np.array_equal(free, film):
-            raise AssertionError(f"{light}/{sampler} view {k}: {int((free != film).sum())} of {free.size} values differ "
-                                 f"(max {float(np.abs(free - film).max()):.3g}); images: {_dump(f'{light}-{sampler}', film, free)}")
+            n, worst = int((free != film).sum()), float(np.abs(free - film).max())
+            raise AssertionError(f"{light}/{sampler} view {k}: {n} of {free.size} values differ (max {worst:.3g}); "
+                                 f"images: {_dump(f'{light}-{sampler}', film, free)}")
 
 
 def test_the_stage_encoding_is_the_films():

@@ -2,6 +2,7 @@
 equivariance (normals rotated into screen space), one compiled kernel for all views, 256 and 288 renders."""
 from __future__ import annotations
 
+import gc
 import math
 
 import numpy as np
@@ -103,8 +104,13 @@ def test_views_reuse_the_compiled_kernels(light_model):
     warm = ViewParams(zoom=0.8, rotation=0.1, light_x=0.3, light_y=0.2, seed=1)
     scene.render_view(base, 64, warm)
     other_base = planes_of(checker_svbrdf(64, cells=4, seed=9))
+    # a kernel that dispatches over BSDFs (the sphere's MIS) traces every live BSDF instance: an earlier test's scene
+    # freed by the garbage collector in the middle of the loop would change it. Free them first, and hold the collector
+    gc.collect()
+    gc.disable()
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     try:
+        scene.render_view(base, 64, warm)
         dr.kernel_history_clear()
         per_view = []
         for k in range(4):
@@ -117,6 +123,7 @@ def test_views_reuse_the_compiled_kernels(light_model):
             dr.kernel_history_clear()
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, False)
+        gc.enable()
     assert len(set(per_view)) == 1  # the same kernels every view
 
 

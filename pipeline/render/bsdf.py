@@ -37,7 +37,7 @@ from materials.maps import CHANNEL_NAMES, MAP_SLICES, SVBRDF, pack_maps
 
 from svcore.mi_env import bind_variant, load_mitsuba
 
-from storage.views import to_planes
+from storage.views import supersampling, to_planes, view_inputs, view_texel
 
 mi = load_mitsuba()
 import drjit as dr  # noqa: E402  (after load_mitsuba: drjit must see the libLLVM path first)
@@ -171,14 +171,23 @@ class GGXBSDF(mi.BSDF):
         return f" x {self.views} views" if self.views > 1 else ""
 
     # ---- texture lookup ---------------------------------------------------------------------------------------
-    def _texel(self, si, active):
-        """Nearest-texel lookup -> (normal Vector3f, diffuse Color3f, specular Color3f, alpha Float)."""
+    def _pixel(self, si):
+        """The texel (and film pixel) a hit falls in: (row, col) mi.UInt32, numpy row 0 = image top."""
         col = mi.UInt32(dr.clip(mi.Int32(dr.floor(si.uv.x * self.width)), 0, self.width - 1))
         row = mi.UInt32(dr.clip(mi.Int32(dr.floor((1.0 - si.uv.y) * self.height)), 0, self.height - 1))
+        return row, col
+
+    def _channels(self, si, active) -> list:
+        """The hit's texel: its 10 channel values, looked up (nearest) in the planes."""
+        row, col = self._pixel(si)
         idx = row * self.width + col
         if self.views > 1:  # the view's own textures (one view per launch compiles without this term)
             idx += mi.UInt32(si.time) * (self.height * self.width)
-        c = [dr.gather(mi.Float, getattr(self, "tex_" + name), idx, active) for name in CHANNELS]
+        return [dr.gather(mi.Float, getattr(self, "tex_" + name), idx, active) for name in CHANNELS]
+
+    def _texel(self, si, active):
+        """Nearest-texel lookup -> (normal Vector3f, diffuse Color3f, specular Color3f, alpha Float)."""
+        c = self._channels(si, active)
         n = mi.Vector3f(*c[MAP_SLICES["normal"]])
         d = mi.Color3f(*c[MAP_SLICES["diffuse"]])
         s = mi.Color3f(*c[MAP_SLICES["specular"]])
@@ -275,9 +284,58 @@ class GGXBSDF(mi.BSDF):
         return bs, weight
 
 
+class ViewGGXBSDF(GGXBSDF):
+    """:class:`GGXBSDF` whose texel is computed in the render kernel from the base maps and the view's transform, name
+    ``svgen_ggx_view``: the render stage's BSDF at one view per launch.
+
+    The planes path is two kernels: :func:`storage.views.transform_planes` writes the view's 10 planes, then the
+    render kernel gathers its pixel's texel back from them, a float per plane. Here the hit's pixel (the one the
+    nearest lookup finds) goes through :func:`storage.views.view_texel`, the transform's own function, inside the
+    render kernel: the same floats, one kernel and 10 gathers per pixel less (experiments/fused_transform).
+
+    Set the view with :meth:`set_view` before rendering (its transform enters the kernel as opaque inputs: one
+    compiled kernel per subsample count). The ``tex_*`` planes are unused.
+    """
+
+    def __init__(self, props):
+        GGXBSDF.__init__(self, props)
+        if self.views != 1 or self.width != self.height:
+            raise ValueError("svgen_ggx_view renders one square view per launch")
+        self._texels = None
+        self._ss = 1
+        self._inputs = None
+
+    def set_view(self, texels, view, res: int) -> None:
+        """Render ``view`` of base maps ``texels`` (:class:`storage.views.BaseTexels`) at the film's ``res``."""
+        if res != self.width:
+            raise ValueError(f"svgen_ggx_view: the film is {self.width}^2, not {res}^2")
+        self._texels, self._ss, self._inputs = texels, supersampling(view, res, texels.base), view_inputs(view)
+
+    @property
+    def has_view(self) -> bool:
+        return self._texels is not None
+
+    def _channels(self, si, active) -> list:
+        if self._texels is None:
+            # drjit traces every live BSDF instance into a kernel that dispatches over BSDFs (symbolic calls), so
+            # another scene's render traces this one too: give it its (unused) constant planes, not an error
+            return GGXBSDF._channels(self, si, active)
+        row, col = self._pixel(si)
+        return view_texel(self._texels, self._inputs, self._ss, self.width, row, col, active)
+
+    def to_string(self):
+        return f"ViewGGXBSDF[{self.height}x{self.width}]"
+
+
+#: the plugin name of :class:`ViewGGXBSDF`
+VIEW_PLUGIN_NAME = "svgen_ggx_view"
+
+
 def register() -> None:
-    """Register the plugin under :data:`PLUGIN_NAME` (idempotent; mitsuba keeps the last registration)."""
+    """Register the plugins under :data:`PLUGIN_NAME` and :data:`VIEW_PLUGIN_NAME` (idempotent; mitsuba keeps the
+    last registration)."""
     mi.register_bsdf(PLUGIN_NAME, lambda props: GGXBSDF(props))
+    mi.register_bsdf(VIEW_PLUGIN_NAME, lambda props: ViewGGXBSDF(props))
 
 
 register()

@@ -83,10 +83,13 @@ def _sphere_transform(x: float, y: float):
     return mi.ScalarTransform4f().translate([x, y, CAMERA_DISTANCE]).scale(SPHERE_RADIUS)
 
 
-def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "independent", views: int = 1) -> dict:
+def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "independent", views: int = 1,
+               in_kernel: bool = False) -> dict:
     """The Mitsuba scene description (light at a default offset; views move it).
 
-    ``views`` > 1 (point flash only): that many views per launch (the module docstring).
+    ``views`` > 1 (point flash only): that many views per launch (the module docstring). ``in_kernel``: the plane's
+    BSDF is ``svgen_ggx_view`` (:class:`pipeline.render.bsdf.ViewGGXBSDF`: the view's transform inside the render
+    kernel; one view per launch), not ``svgen_ggx`` with its planes.
 
     Samplers (:data:`SAMPLERS`): "independent" (random positions in the pixel); "stratified" (one random
     position in each cell of a k x k grid, spp = k^2); "centre" (the centres of that grid, no randomness:
@@ -100,6 +103,8 @@ def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "i
         raise ValueError(f"sampler {sampler!r} needs a square spp (1, 4, 9, 16 ...), got {spp}")
     if views < 1 or (views > 1 and light_model != "point"):
         raise ValueError(f"views per launch must be 1, or more with the point flash; got {views} with {light_model!r}")
+    if in_kernel and views != 1:
+        raise ValueError(f"the transform inside the render kernel renders one view per launch, not {views}")
     sampler_dict = ({"type": "independent", "sample_count": spp} if sampler == "independent"
                     else {"type": "stratified", "sample_count": spp, "jitter": sampler == "stratified"})
     d = {
@@ -116,7 +121,8 @@ def scene_dict(res: int, spp: int, light_model: str = "point", sampler: str = "i
                      "pixel_format": "rgb", "component_format": "float32", "sample_border": False},
             "sampler": sampler_dict,
         },
-        "plane": {"type": "rectangle", "bsdf": {"type": _bsdf.PLUGIN_NAME, "width": res, "height": res}},
+        "plane": {"type": "rectangle", "bsdf": {"type": _bsdf.VIEW_PLUGIN_NAME if in_kernel else _bsdf.PLUGIN_NAME,
+                                                "width": res, "height": res}},
     }
     if views > 1:
         camera = {k: v for k, v in d["sensor"].items() if k not in ("film", "sampler")}
@@ -147,16 +153,21 @@ class FlashScene:
         light_model: "point" or "sphere".
         sampler: "independent", "stratified" or "centre" (see :func:`scene_dict`).
         views: views per launch (point flash only; :meth:`render_views_srgb8` renders them).
+        in_kernel: the view's transform inside the render kernel (one view per launch: :meth:`render_view_srgb8`,
+            the render stage's path); the planes methods need the default, False.
     """
 
     def __init__(self, res: int = 256, spp: int = 1, light_model: str = "point", sampler: str = "independent",
-                 views: int = 1):
+                 views: int = 1, in_kernel: bool = False):
         if res < 1 or spp < 1:
             raise ValueError(f"res and spp must be positive, got {res}, {spp}")
         self.res, self.spp, self.light_model, self.sampler = int(res), int(spp), light_model, sampler
-        self.views = int(views)
-        self.scene = mi.load_dict(scene_dict(self.res, self.spp, light_model, sampler, self.views))
+        self.views, self.in_kernel = int(views), bool(in_kernel)
+        self.scene = mi.load_dict(scene_dict(self.res, self.spp, light_model, sampler, self.views, self.in_kernel))
         self.params = mi.traverse(self.scene)
+        # the plane's BSDF (the sphere flash is a shape too)
+        self._plane_bsdf = next(b for b in (sh.bsdf() for sh in self.scene.shapes())
+                                if isinstance(b, _bsdf.GGXBSDF))
         self._plane_keys = ["plane.bsdf.tex_" + c for c in _bsdf.CHANNELS]
         self._light_key = "light.position" if light_model == "point" else "light.to_world"
         self._encoder = None
@@ -170,6 +181,8 @@ class FlashScene:
 
     def set_planes(self, planes: list) -> None:
         """Set the textures: 10 channel planes (mi.Float, views * res * res each) already in screen space."""
+        if self.in_kernel:
+            raise ValueError("an in_kernel scene renders views of base maps (render_view_srgb8), not planes")
         if len(planes) != len(self._plane_keys) or any(dr.width(p) != self.views * self.res ** 2 for p in planes):
             raise ValueError(f"need {len(self._plane_keys)} planes of {self.views} x {self.res}^2 texels")
         for key, plane in zip(self._plane_keys, planes):
@@ -205,6 +218,28 @@ class FlashScene:
         self.params.update()
         return self._encoder(self.radiance(seed)).reshape(self.res, self.res, 3)
 
+    def render_view_srgb8(self, texels, view: ViewParams) -> np.ndarray:
+        """A view of base maps, its transform computed inside the render kernel (an ``in_kernel`` scene): the codes
+        :meth:`render_planes_srgb8` gives for ``transform_planes(texels, base, view, res)``, one kernel less.
+
+        Args:
+            texels: the base maps (:class:`storage.views.BaseTexels`, :func:`storage.views.texels_of`).
+            view: the view (its transform, flash and seed).
+
+        Returns:
+            (res, res, 3) uint8 sRGB codes.
+        """
+        from storage.srgb8 import DrjitEncoder
+
+        if not self.in_kernel:
+            raise ValueError("render_view_srgb8 needs a FlashScene(in_kernel=True)")
+        if self._encoder is None:
+            self._encoder = DrjitEncoder()
+        self._plane_bsdf.set_view(texels, view, self.res)
+        self.set_light(view.light_x, view.light_y)
+        self.params.update()
+        return self._encoder(self.radiance(view.seed)).reshape(self.res, self.res, 3)
+
     def radiance(self, seed: int):
         """The scene as set (textures, flash) rendered with sampler seed ``seed``: a drjit Float of res * res * 3
         linear RGB values in the film's order (pixels row by row, channels interleaved), unclipped.
@@ -213,6 +248,8 @@ class FlashScene:
         BSDF render without its film (:meth:`_film_free`): the same floats, about 1.2 ms less per 288^2 view
         (experiments/film_free). Otherwise the film averages the samples: :meth:`render_film`.
         """
+        if self.in_kernel and not self._plane_bsdf.has_view:
+            raise ValueError("an in_kernel scene renders a view set on it first (render_view_srgb8)")
         if self.spp != 1 or self.views != 1:
             return self.render_film(seed)
         return self._film_free(seed)

@@ -34,7 +34,8 @@ def _scene(res: int, spp: int, light: str, sampler: str, views: int = 1):
         # different views per call stay side by side: a task's last launch may be shorter than the others
         if any(k[:4] != key[:4] for k in _SCENES):
             _SCENES.clear()
-        _SCENES[key] = FlashScene(res, spp, light, sampler, views)
+        # one view per launch: the view's transform inside the render kernel (the same codes, one kernel less)
+        _SCENES[key] = FlashScene(res, spp, light, sampler, views, in_kernel=views == 1)
     return _SCENES[key]
 
 
@@ -74,12 +75,13 @@ def render_svbrdf(scene, maps, index: int, cfg: RenderConfig,
     views = draw_views(cfg.seed, index, cfg.views, light_radius or (R_MIN, R_MAX), tuple(cfg.zoom))
     images = np.empty((cfg.views, cfg.res, cfg.res, 3), np.uint8) if out is None else out
     for group in launch_groups(cfg.views, cfg.views_per_launch):
+        if len(group) == 1:  # one view per call (its own seed): the stored bytes of every default store
+            images[group[0]] = scene(1).render_view_srgb8(base, views[group[0]])
+            continue
         planes = [transform_planes(base, b, views[k], cfg.res) for k in group]
         lights = [(views[k].light_x, views[k].light_y) for k in group]
-        if len(group) == 1:  # one view per call (its own seed): the stored bytes of every default store
-            images[group[0]] = scene(1).render_planes_srgb8(planes[0], lights[0], views[group[0]].seed)
-        else:  # the launch's sampler seed is its first view's (the default 'centre' sampler draws nothing)
-            images[group.start:group.stop] = scene(len(group)).render_views_srgb8(planes, lights, views[group[0]].seed)
+        # the launch's sampler seed is its first view's (the default 'centre' sampler draws nothing)
+        images[group.start:group.stop] = scene(len(group)).render_views_srgb8(planes, lights, views[group[0]].seed)
     return images, np.stack([v.as_array() for v in views])
 
 
