@@ -76,20 +76,38 @@ class DrjitEncoder:
 
         codes, thr = _bucket_codes()
         self._mi = mi
-        self._codes = mi.UInt32(codes.astype(np.uint32))
+        self._codes_lut = mi.UInt32(codes.astype(np.uint32))
         self._thr = mi.Float(thr)
 
     def __call__(self, linear) -> np.ndarray:
         """drjit Float array (any width) of linear values -> numpy uint8 codes (same order)."""
+        return np.asarray(self._codes(self._mi.Float(linear))).astype(np.uint8)
+
+    def channels(self, channels) -> np.ndarray:
+        """The channels of an image still being traced (e.g. a render's R, G and B, each a drjit Float of N pixels)
+        -> (N, C) numpy uint8 codes, channels side by side.
+
+        The codes are computed in the kernel that computes the channels: the render and its encoding are one
+        kernel, and the image's floats are never written to memory (experiments/direct_calls). An interleaved
+        float image would need a scatter, which ends the kernel; here each channel's codes are their own output.
+        """
+        from svcore.mi_env import dr
+
+        codes = [self._mi.UInt8(self._codes(x)) for x in channels]
+        dr.eval(*codes)
+        return np.stack([np.asarray(c) for c in codes], axis=-1)
+
+    def _codes(self, x):
+        """Float -> UInt32 codes, traced (not evaluated): the rule of :func:`encode_srgb8`."""
         from svcore.mi_env import dr
 
         mi = self._mi
-        x = dr.clip(mi.Float(linear), 0.0, 1.0)
+        x = dr.clip(x, 0.0, 1.0)
         b = mi.UInt32(dr.maximum(mi.Int32(x * _BUCKETS) - 1, 0))  # same bucket rule as encode_srgb8
-        c = dr.gather(mi.UInt32, self._codes, b)
+        c = dr.gather(mi.UInt32, self._codes_lut, b)
         c += mi.UInt32(x >= dr.gather(mi.Float, self._thr, c))
         c += mi.UInt32(x >= dr.gather(mi.Float, self._thr, c))
-        return np.asarray(c).astype(np.uint8)
+        return c
 
 
 def decode_srgb8(codes: np.ndarray) -> np.ndarray:

@@ -114,6 +114,27 @@ def test_srgb8_matches_colour_science():
     assert np.abs(decode_srgb8(fast) - np.clip(x, 0, 1)).max() < 0.00446
 
 
+def test_drjit_encoder_gives_numpys_codes():
+    """The render's drjit encoder (:class:`storage.srgb8.DrjitEncoder`), on one array and channel by channel inside a
+    kernel, gives :func:`encode_srgb8`'s codes exactly: the same bucket rule, on every threshold, the float32
+    neighbours of every threshold, and values outside [0, 1] (clipped). Channels come back side by side."""
+    from storage.srgb8 import DrjitEncoder
+
+    from svcore.mi_env import mi
+
+    t = _thresholds()
+    x = np.concatenate([t, np.nextafter(t, np.float32(0)), np.nextafter(t, np.float32(2)), [-1.0, 0.0, 1.0, 2.5],
+                        np.random.default_rng(1).random(3_000) ** 2]).astype(np.float32)
+    want = encode_srgb8(x)
+    enc = DrjitEncoder()
+    np.testing.assert_array_equal(enc(mi.Float(x)), want)
+    k = len(x) // 3
+    rgb = x[: 3 * k].reshape(k, 3)
+    got = enc.channels([mi.Float(rgb[:, c]) * 1.0 for c in range(3)])  # traced channels, as a render's
+    assert got.shape == (k, 3) and got.dtype == np.uint8
+    np.testing.assert_array_equal(got, want[: 3 * k].reshape(k, 3))
+
+
 def _bad_variants(path, normal_z: float):
     """A variants-kind store whose normals have z = normal_z (z <= 0 breaks DESIGN.md)."""
     n = 2

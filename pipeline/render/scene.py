@@ -209,14 +209,10 @@ class FlashScene:
     def render_planes_srgb8(self, planes: list, light_xy: tuple[float, float], seed: int) -> np.ndarray:
         """As :meth:`render_planes` (clipped), but returns the stored encoding: (res, res, 3) uint8 sRGB codes,
         encoded by drjit before the image leaves it (see :class:`storage.srgb8.DrjitEncoder`)."""
-        from storage.srgb8 import DrjitEncoder
-
-        if self._encoder is None:
-            self._encoder = DrjitEncoder()
         self.set_planes(planes)
         self.set_light(*light_xy)
         self.params.update()
-        return self._encoder(self.radiance(seed)).reshape(self.res, self.res, 3)
+        return self._srgb8(seed)
 
     def render_view_srgb8(self, texels, view: ViewParams) -> np.ndarray:
         """A view of base maps, its transform computed inside the render kernel (an ``in_kernel`` scene): the codes
@@ -229,16 +225,35 @@ class FlashScene:
         Returns:
             (res, res, 3) uint8 sRGB codes.
         """
-        from storage.srgb8 import DrjitEncoder
-
         if not self.in_kernel:
             raise ValueError("render_view_srgb8 needs a FlashScene(in_kernel=True)")
-        if self._encoder is None:
-            self._encoder = DrjitEncoder()
         self._plane_bsdf.set_view(texels, view, self.res)
         self.set_light(view.light_x, view.light_y)
         self.params.update()
-        return self._encoder(self.radiance(view.seed)).reshape(self.res, self.res, 3)
+        return self._srgb8(view.seed)
+
+    def _srgb8(self, seed: int) -> np.ndarray:
+        """The scene as set, rendered with sampler seed ``seed`` and encoded: (res, res, 3) uint8 sRGB codes.
+
+        Film-free (:meth:`radiance`), the encoding runs in the render's own kernel, one output per channel
+        (:meth:`storage.srgb8.DrjitEncoder.channels`): the same codes as encoding :meth:`radiance`'s floats, one
+        kernel and a float scatter per pixel less (experiments/direct_calls).
+        """
+        encoder = self._srgb8_encoder()
+        if self.in_kernel and not self._plane_bsdf.has_view:
+            raise ValueError("an in_kernel scene renders a view set on it first (render_view_srgb8)")
+        if self.spp != 1 or self.views != 1:
+            return encoder(self.render_film(seed)).reshape(self.res, self.res, 3)
+        rgb = self._film_free_rgb(seed)
+        return encoder.channels([rgb[0], rgb[1], rgb[2]]).reshape(self.res, self.res, 3)
+
+    def _srgb8_encoder(self):
+        """The scene's 8-bit sRGB encoder, made on first use (its tables are drjit arrays of the scene's variant)."""
+        from storage.srgb8 import DrjitEncoder
+
+        if self._encoder is None:
+            self._encoder = DrjitEncoder()
+        return self._encoder
 
     def radiance(self, seed: int):
         """The scene as set (textures, flash) rendered with sampler seed ``seed``: a drjit Float of res * res * 3
@@ -258,8 +273,9 @@ class FlashScene:
         """As :meth:`radiance`, through ``mi.render`` and the scene's film (any spp and views per launch)."""
         return mi.render(self.scene, params=self.params, seed=int(seed), spp=self.spp).array
 
-    def _film_free(self, seed: int):
-        """:meth:`radiance` at one sample per pixel, without the film.
+    def _film_free_rgb(self, seed: int):
+        """:meth:`radiance` at one sample per pixel, without the film, as a traced (not evaluated) Spectrum of res * res
+        pixels, row by row.
 
         Mitsuba's ``SamplingIntegrator.render`` (src/render/integrator.cpp) seeds the sensor's sampler with
         (seed, pixels), draws each pixel's position sample, maps it to the film as fmadd(pixel + sample, 1 / size,
@@ -279,7 +295,11 @@ class FlashScene:
         film_pos = dr.fma(pixel + sampler.next_2d(), mi.Vector2f(1.0 / self.res), mi.Vector2f(-0.0))
         ray, weight = sensor.sample_ray_differential(sensor.shutter_open(), 0.0, film_pos, mi.Point2f(0.5))
         spec, _, _ = self.scene.integrator().sample(self.scene, sampler, ray, None, True)
-        return dr.ravel(weight * spec, order="F")  # F: the 3 channels of a pixel side by side, as the film
+        return weight * spec
+
+    def _film_free(self, seed: int):
+        """:meth:`radiance` at one sample per pixel, without the film: :meth:`_film_free_rgb`'s channels interleaved."""
+        return dr.ravel(self._film_free_rgb(seed), order="F")  # F: the 3 channels of a pixel side by side, as the film
 
     def render_views_srgb8(self, planes: list, lights: list, seed: int) -> np.ndarray:
         """All views of a several-views scene in one launch, as :meth:`render_planes_srgb8` renders one.
@@ -292,19 +312,15 @@ class FlashScene:
         Returns:
             (views, res, res, 3) uint8 sRGB codes.
         """
-        from storage.srgb8 import DrjitEncoder
-
         if self.views < 2 or len(planes) != self.views or len(lights) != self.views:
             raise ValueError(f"this scene renders {self.views} views per launch, got {len(planes)} planes and "
                              f"{len(lights)} lights")
-        if self._encoder is None:
-            self._encoder = DrjitEncoder()
         self.set_planes([dr.concat([p[c] for p in planes]) for c in range(len(self._plane_keys))])
         self.params["integrator.flash_x"] = mi.Float([float(x) for x, _ in lights])
         self.params["integrator.flash_y"] = mi.Float([float(y) for _, y in lights])
         self.params.update()
         img = mi.render(self.scene, params=self.params, seed=int(seed), spp=self.spp)
-        codes = self._encoder(img.array).reshape(self.res, self.views, self.res, 3)
+        codes = self._srgb8_encoder()(img.array).reshape(self.res, self.views, self.res, 3)
         return np.ascontiguousarray(codes.transpose(1, 0, 2, 3))
 
     def render_view(self, base_planes: list, base_res: int, view: ViewParams) -> tuple[np.ndarray, list]:
