@@ -79,15 +79,17 @@ def supersampling(view: ViewParams, res: int, base: int) -> int:
     return max(1, math.ceil(view.zoom * base / res - 1e-9))
 
 
-#: floats per texel of :class:`BaseTexels`: the 10 channels and 2 of padding, three 4-float packets
-TEXEL_STRIDE = 12
+#: floats per texel of :class:`BaseTexels`: the 10 channels and 6 of padding, 64 bytes: a texel is one cache line of an
+#: aligned buffer, so its three 4-float packets never straddle two lines, as half of 48-byte texels did (#42; the same
+#: floats, faster when minifying: experiments/direct_calls)
+TEXEL_STRIDE = 16
 
 
 @dataclass(frozen=True)
 class BaseTexels:
-    """Base maps packed texel by texel for :func:`transform_planes`: ``buf`` holds each texel's 10 channels (and 2
-    zeros) side by side, so a bilinear corner is 3 packet gathers of 4 floats from one 48-byte run, where 10
-    separate planes cost 10 scattered loads (#42; the same floats, faster: experiments/packed_texels).
+    """Base maps packed texel by texel for :func:`transform_planes`: ``buf`` holds each texel's 10 channels (and 6
+    zeros: :data:`TEXEL_STRIDE`) side by side, so a bilinear corner is 3 packet gathers of 4 floats from one cache
+    line, where 10 separate planes cost 10 scattered loads (#42; the same floats, faster: experiments/packed_texels).
 
     Attributes:
         buf: mi.Float of width base * base * TEXEL_STRIDE, texels row-major with numpy row 0 = image top.
@@ -182,7 +184,8 @@ def view_texel(texels: BaseTexels, inputs: tuple, ss: int, res: int, row, col, a
         10 mi.Float (lazy): normal xyz (rotated, renormalised), then diffuse, specular and roughness clipped to [0, 1].
     """
     base = texels.base
-    packets = TEXEL_STRIDE // 4
+    packets = -(-N_CHANNELS // 4)  # the packets that hold channels (a texel's stride may pad past them)
+    stride = TEXEL_STRIDE // 4
     packet_t = mi.Array4f  # 4 floats gathered at once, in the variant's own array type (llvm or cuda)
     c, s, zoom, su, sv = inputs
     acc = [mi.Float(0.0) for _ in range(N_CHANNELS)]
@@ -212,7 +215,7 @@ def view_texel(texels: BaseTexels, inputs: tuple, ss: int, res: int, row, col, a
                 # the corner's channels in packets of 4 (channel k is component k % 4 of packet k // 4); each
                 # channel's sum keeps the order of one gather per plane: the same floats
                 texel = [g[q] for p in range(packets)
-                         for g in (dr.gather(packet_t, texels.buf, idx * packets + p, active),) for q in range(4)]
+                         for g in (dr.gather(packet_t, texels.buf, idx * stride + p, active),) for q in range(4)]
                 for k in range(N_CHANNELS):
                     acc[k] = dr.fma(texel[k], w, acc[k])
     if ss > 1:
