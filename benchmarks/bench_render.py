@@ -1,8 +1,9 @@
 """End-to-end cost, size and accuracy of `svgen render` at the default quality (256^2), and the storage decision.
 
-1. A variants store of one preset per material class (9 SVBRDFs, 256^2, `svgen sample` code).
+1. A variants store of one preset per material class (19 classes), ``--tasks`` x ``--chunk`` SVBRDFs in all
+   (per_preset variants of each: 320 at the defaults), 256^2, `svgen sample` code.
 2. cpu_s_per_view: the default setting (dask, 2 local worker processes, cores // workers = 1 drjit thread
-   each), end to end per chunk task -- read and decode maps, draw views, transform maps, render, encode,
+   each; tasks of the default render.chunk, 64 SVBRDFs, as the pipeline runs), end to end per chunk task -- read and decode maps, draw views, transform maps, render, encode,
    compress, write the chunk: the worker process's CPU time (all its threads, zarr's I/O thread included)
    around each task, summed over the tasks after each worker's first (which pays the one-time start: imports,
    scene load, kernel compilation; reported separately). Also: `run_render` in this process (--workers 0,
@@ -12,7 +13,11 @@
 5. Storage decision: bytes and read time per view of (a) aligned maps stored per view (uint16 like the base
    maps, or uint8) vs (b) recomputed by RendersReader.maps from the stored base maps.
 6. rel_rmse_vs_reference: the stored image (8-bit sRGB, decoded) against a converged sphere-light reference
-   (512 spp stratified), one view per SVBRDF, pooled; and the 8-bit quantisation's share of it.
+   (512 spp stratified), one view per SVBRDF, pooled; and the 8-bit quantisation's share of it. 5 and 6 use one
+   SVBRDF per class (spread evenly over the store).
+
+Until 2026-12-03 the tasks were of 1 SVBRDF (``--chunk 1``) on 19 SVBRDFs: each task then paid the shard writes of
+every array for 10 views, which the pipeline's tasks of 64 share among 640.
 
 Writes benchmarks/results/render.json. Usage: python3 benchmarks/bench_render.py [--quick].
 """
@@ -72,7 +77,10 @@ def _timed(task, c: int, threads: int) -> dict:
 
 def main(argv=None) -> int:
     ap = parser(__doc__)
-    ap.add_argument("--quick", action="store_true", help="3 SVBRDFs, no reference (smoke run)")
+    ap.add_argument("--quick", action="store_true", help="3 SVBRDFs in tasks of 1, no reference (smoke run)")
+    ap.add_argument("--chunk", type=int, default=RenderConfig().chunk, help="SVBRDFs per task (the default config's)")
+    ap.add_argument("--tasks", type=int, default=5,
+                    help="tasks in all; each worker's first pays the start and is left out (5: at least 3 measured)")
     ap.add_argument("--out", default=str(RESULTS / "render.json"))
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="svgen-bench-render-"))
@@ -81,12 +89,18 @@ def main(argv=None) -> int:
         for p in sorted(registry.presets(), key=lambda p: p.name):
             by_class.setdefault(p.name.split("/")[0], p.name)
         presets = tuple(by_class.values())[: 3 if args.quick else None]
+        chunk, tasks = (1, 3) if args.quick else (args.chunk, args.tasks)
+        per_preset = -(-chunk * tasks // len(presets))
         variants = tmp / "variants.zarr"
-        run_sample(variants, build(SampleConfig, "default", presets=presets, per_preset=1, size=256), workers=0)
-        # tasks of 1 SVBRDF (the default is 64): 9 tasks, so that each of the 2 workers has tasks after its first
-        # (which pays the start); the store layout is the default's (one shard per task), its per-task cost too
-        cfg = build(RenderConfig, "default", chunk=1)
-        n_views = len(presets) * cfg.views
+        run_sample(variants, build(SampleConfig, "default", presets=presets, per_preset=per_preset, size=256),
+                   workers=0)
+        # tasks of the pipeline's size, enough of them that each of the 2 workers has tasks after its first (which
+        # pays the start); the store layout is the default's (one shard per task), its per-task cost too
+        cfg = build(RenderConfig, "default", chunk=chunk)
+        n_svbrdf = len(presets) * per_preset
+        n_views = n_svbrdf * cfg.views
+        # one SVBRDF per class for the storage and accuracy figures, spread evenly over the store
+        picked = sorted({int(round(x)) for x in np.linspace(0, n_svbrdf - 1, len(presets))})
 
         # 2. CPU per view in process; the first chunk alone measures the one-time start
         first = tmp / "first.zarr"
@@ -107,7 +121,8 @@ def main(argv=None) -> int:
             task = chunk_task(w, variants, cfg, n)
             threads = threads_per_worker(client)
             w0 = time.perf_counter()
-            futs = client.map(_timed, [task] * n, list(range(n)), [threads] * n, pure=False)
+            n_tasks = -(-n // cfg.chunk)
+            futs = client.map(_timed, [task] * n_tasks, list(range(n_tasks)), [threads] * n_tasks, pure=False)
             stats = client.gather(futs)  # dask_client's client is not the default one: gather through it
             wall_dask = time.perf_counter() - w0
             w.finalize()
@@ -130,7 +145,7 @@ def main(argv=None) -> int:
 
         # 5. storage alternatives: aligned maps stored per view vs recomputed
         stored16, stored8, t_recompute, t_stored = [], [], [], []
-        for i in range(len(r1)):
+        for i in (s * cfg.views for s in picked):
             m, _, dt = timed(lambda: r1.maps(i))
             t_recompute.append(dt)
             a = pack_maps(dataclasses.replace(m, normal=encode_normal(m.normal)))  # as stored: normals (n+1)/2
@@ -159,7 +174,7 @@ def main(argv=None) -> int:
             ref_scene = FlashScene(cfg.res, 64, "sphere", "stratified")
             e2 = r2_ = q2 = 0.0
             per = []
-            for s in range(r1.n_svbrdf):
+            for s in picked:
                 i = s * cfg.views
                 v = r1.view_params(i)
                 planes = transform_planes(texels_of(r1.base_maps(s)), r1.base_res, v, cfg.res)
@@ -180,9 +195,11 @@ def main(argv=None) -> int:
             "benchmark": "render_end_to_end", "config": {"res": cfg.res, "spp": cfg.spp, "light": cfg.light,
                                                          "sampler": cfg.sampler, "views": cfg.views,
                                                          "chunk": cfg.chunk},
-            "svbrdfs": len(presets), "views": n_views,
+            "svbrdfs": n_svbrdf, "views": n_views, "measured_views": sum(x["views"] for x in steady),
+            "svbrdfs_for_storage_and_accuracy": len(picked),
             "cpu_s_per_view": dask_cpu_s_per_view,
-            "cpu_s_per_view_note": "dask, 2 local workers x 1 drjit thread: worker CPU around each chunk task, first task per worker excluded",
+            "cpu_s_per_view_note": f"dask, 2 local workers x 1 drjit thread, tasks of {cfg.chunk} SVBRDFs: worker CPU "
+                                   "around each chunk task, first task per worker excluded",
             "views_per_s": dask_views_per_s, "views_per_s_note": "dask, 2 local workers, tasks submitted to a running cluster (start excluded)",
             "cpu_s_one_time_start_per_worker": first_task_extra_cpu, "drjit_threads_per_worker": threads,
             "cpu_s_per_view_in_process": inproc_cpu_s_per_view, "views_per_s_in_process": n_views / wall,
