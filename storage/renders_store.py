@@ -134,7 +134,7 @@ class RendersReader:
     @property
     def plane_bytes(self) -> int:
         """Bytes of one SVBRDF's base maps as the transform reads them (:class:`storage.views.BaseTexels`): 10
-        float32 channels and 2 of padding per texel at the base resolution."""
+        float32 channels and 6 of padding per texel (:data:`storage.views.TEXEL_STRIDE`) at the base resolution."""
         from .views import TEXEL_STRIDE
 
         return self.base_res ** 2 * TEXEL_STRIDE * 4
