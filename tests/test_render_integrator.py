@@ -114,8 +114,6 @@ def test_direct_calls_give_the_dispatch_floats(sampler):
     the steps of Mitsuba's ``finalize_surface_interaction`` that ``plane_hit`` repeats)."""
     from storage.views import texels_of, transform_planes
 
-    from pipeline.render.scene import dr
-
     ref_name = _dispatching_integrator()
     res, base = 40, 48
     svbrdf = checker_svbrdf(base, seed=6)
@@ -140,4 +138,3 @@ def test_direct_calls_give_the_dispatch_floats(sampler):
     p = [transform_planes(texels, base, v, res) for v in views]
     lights = [(v.light_x, v.light_y) for v in views]
     np.testing.assert_array_equal(several.render_views_srgb8(p, lights, 3), several_ref.render_views_srgb8(p, lights, 3))
-    dr.eval()
