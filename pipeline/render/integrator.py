@@ -9,7 +9,7 @@ ray and the BSDF. This integrator computes the same product without the two part
 * the hit comes from the rectangle's own ray-plane code (``shape.ray_intersect_preliminary``), not Embree;
 * the flash's direction sample is taken with no shadow ray;
 * the plane, its BSDF and the flash are called on the objects themselves (:func:`plane_hit`), not through the
-  scene's dispatch over shapes, emitters and BSDFs: the same floats, 17-20 % less CPU per render call
+  scene's dispatch over shapes, emitters and BSDFs: the same floats, 16-19 % less CPU per render call
   (experiments/direct_calls).
 
 The image equals ``direct``'s up to float32 rounding of the hit point (the two intersection codes round
@@ -107,8 +107,8 @@ def plane_hit(plane, ray, active):
     on the objects themselves, not through the scene's and the interaction's dispatch.
 
     Why: drjit compiles each dispatch as a call that reads its object's data through per-lane gathers. Without the
-    three dispatches a 256^2 view's render call took 17-20 % less CPU (experiments/direct_calls). Their results are the same floats
-    (tests/test_render_integrator.py compares them with the dispatching integrator, exactly).
+    three dispatches a 256^2 view's render call took 16-19 % less CPU (experiments/direct_calls). Their results are
+    the same floats (tests/test_render_integrator.py compares them with the dispatching integrator, exactly).
 
     The steps after the plane's ``compute_surface_interaction`` are Mitsuba's
     ``SurfaceInteraction::finalize_surface_interaction`` (include/mitsuba/render/interaction.h), the part of it

@@ -240,8 +240,6 @@ class FlashScene:
         kernel and a float scatter per pixel less (experiments/direct_calls).
         """
         encoder = self._srgb8_encoder()
-        if self.in_kernel and not self._plane_bsdf.has_view:
-            raise ValueError("an in_kernel scene renders a view set on it first (render_view_srgb8)")
         if self.spp != 1 or self.views != 1:
             return encoder(self.render_film(seed)).reshape(self.res, self.res, 3)
         rgb = self._film_free_rgb(seed)
