@@ -105,27 +105,35 @@ def white_spectrum(size: int, seed: int) -> np.ndarray:
     Returns:
         (size, size) complex64 in FFT order; real and imaginary parts i.i.d., zero mean, unit variance.
     """
-    c = np.zeros((size, size), np.complex64)
-    parts = c.view(F32).reshape(size, size, 2)  # real and imaginary planes, written in place (no complex temporaries)
+    # the 32-bit codes of the draws, real and imaginary planes; converted to floats once, after the blocks are placed
+    codes = np.empty((2, size, size), np.uint32)
     levels = [b for b in (64, 128, 256, 512, 1024) if b <= size]
     if levels[-1] != size:  # sizes between powers of two: one last ring of their own
         levels.append(size)
     inner = 0
     for b in levels:
-        g = np.random.default_rng((seed, b))
-        # uniform with unit variance: cheaper than normals, and the filtered sum is Gaussian anyway (CLT)
-        w = g.random((2, b, b), dtype=F32)
-        w -= F32(0.5)
-        w *= _SQRT12
+        # the block is Generator.random((2, b, b), dtype=float32) of default_rng((seed, b)): that draw is
+        # (u >> 8) * 2**-24 for the generator's 32-bit outputs u, and PCG64 gives those as the low then the high
+        # half of each 64-bit output. So the raw 64-bit stream, viewed as uint32, holds the same draws in the same
+        # order, at about half the cost of the float draw (experiments/sample_speed: the same bytes, every size).
+        src = np.random.default_rng((seed, b)).bit_generator.random_raw(b * b).view(np.uint32).reshape(2, b, b)
         o = (size - b) // 2
         i0, i1 = (b - inner) // 2, (b - inner) // 2 + inner
-        for part in range(2):
-            dst, src = parts[o:o + b, o:o + b, part], w[part]
-            # the whole block, except the lower-frequency square kept from the previous level (the block's draws
-            # there are made and dropped: each level's stream stays the same whatever the size)
-            dst[:i0], dst[i1:] = src[:i0], src[i1:]
-            dst[i0:i1, :i0], dst[i0:i1, i1:] = src[i0:i1, :i0], src[i0:i1, i1:]
+        dst = codes[:, o:o + b, o:o + b]
+        # the whole block, except the lower-frequency square kept from the previous level (the block's draws
+        # there are made and dropped: each level's stream stays the same whatever the size)
+        dst[:, :i0], dst[:, i1:] = src[:, :i0], src[:, i1:]
+        dst[:, i0:i1, :i0], dst[:, i0:i1, i1:] = src[:, i0:i1, :i0], src[:, i0:i1, i1:]
         inner = b
+    codes >>= 8
+    # uniform with unit variance: cheaper than normals, and the filtered sum is Gaussian anyway (CLT); the float32
+    # steps of the float draw ((u >> 8) * 2**-24, exact), then - 0.5 and * sqrt(12), in that order
+    w = codes.astype(F32)
+    w *= F32(2.0 ** -24)
+    w -= F32(0.5)
+    w *= _SQRT12
+    c = np.empty((size, size), np.complex64)
+    c.real, c.imag = w[0], w[1]
     return np.fft.ifftshift(c)
 
 

@@ -50,7 +50,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--this", default=str(ROOT), help="checkout measured as 'this' (default: this one)")
     ap.add_argument("--against", required=True, help="checkout measured as 'against' (e.g. a worktree of the code before)")
     ap.add_argument("--per-preset", type=int, default=2)
-    ap.add_argument("--count", type=int, default=2000, help="blends per blend run")
+    ap.add_argument("--count", type=int, default=2000, help="blends per blend run (0: the sample stage only)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--note", default="")
@@ -76,12 +76,13 @@ def main(argv=None) -> dict:
                 common = ["--config-preset", "paper", "--workers", str(a.workers)]
                 load = os.getloadavg()[0]
                 s = run_stage(["sample", str(v), *common, "--per-preset", str(a.per_preset)], env, codes[tag])
-                bl = run_stage(["blend", str(v), str(b), *common, "--count", str(a.count)], env, codes[tag])
+                bl = run_stage(["blend", str(v), str(b), *common, "--count", str(a.count)], env, codes[tag]) \
+                    if a.count else {"wall_s": 0.0, "cpu_s": 0.0}
                 row[tag] = {"sample": s, "blend": bl, "loadavg_1min_before": round(load, 2)}
                 print(f"round {r} {tag}: sample {s['wall_s']:.1f} s wall {s['cpu_s']:.1f} CPU-s; "
                       f"blend {bl['wall_s']:.1f} s wall {bl['cpu_s']:.1f} CPU-s (load {load:.1f})", flush=True)
             if r == 0:  # the stores of both codes, chunk file by chunk file
-                for kind in ("v", "b"):
+                for kind in ("v", "b") if a.count else ("v",):
                     m_this, m_against = (manifest(work / f"{t}_{kind}.zarr") for t in ("this", "against"))
                     same[{"v": "variants", "b": "blends"}[kind]] = m_this == m_against
             rounds.append(row)
@@ -93,7 +94,7 @@ def main(argv=None) -> dict:
 
     def summary(tag: str) -> dict:
         out = {}
-        for stage, n in (("sample", n_variants), ("blend", a.count)):
+        for stage, n in (("sample", n_variants), ("blend", a.count))[:2 if a.count else 1]:
             wall = statistics.median(r[tag][stage]["wall_s"] for r in rounds)
             cpu = statistics.median(r[tag][stage]["cpu_s"] for r in rounds)
             out[stage] = {"n": n, "median_wall_s": wall, "median_cpu_s": cpu,
