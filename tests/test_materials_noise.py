@@ -127,3 +127,41 @@ def test_srgb_decoding_matches_iec_61966():
     ref = np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
     assert np.allclose(srgb_to_linear(x), ref, atol=1e-6)
     assert np.allclose(linear_to_srgb(srgb_to_linear(x)), x, atol=1e-5)
+
+
+def _white_spectrum_by_float_draws(size: int, seed: int) -> np.ndarray:
+    """The white spectrum as it was written before #42's speed-up: each block Generator.random((2, b, b),
+    dtype=float32), shifted and scaled in float32, placed into interleaved real and imaginary planes."""
+    c = np.zeros((size, size), np.complex64)
+    parts = c.view(np.float32).reshape(size, size, 2)
+    levels = [b for b in (64, 128, 256, 512, 1024) if b <= size]
+    if levels[-1] != size:
+        levels.append(size)
+    inner = 0
+    for b in levels:
+        w = np.random.default_rng((seed, b)).random((2, b, b), dtype=np.float32)
+        w -= np.float32(0.5)
+        w *= np.float32(np.sqrt(12.0))
+        o = (size - b) // 2
+        i0, i1 = (b - inner) // 2, (b - inner) // 2 + inner
+        for part in range(2):
+            dst, src = parts[o:o + b, o:o + b, part], w[part]
+            dst[:i0], dst[i1:] = src[:i0], src[i1:]
+            dst[i0:i1, :i0], dst[i0:i1, i1:] = src[i0:i1, :i0], src[i0:i1, i1:]
+        inner = b
+    return np.fft.ifftshift(c)
+
+
+@pytest.mark.parametrize("size", [64, 100, 256, 288, 513])
+def test_white_spectrum_is_the_float_draws_bit_for_bit(size):
+    """white_spectrum reads PCG64's raw 64-bit stream as the 32-bit draws Generator.random(dtype=float32) makes
+    from it (low half first, (u >> 8) * 2**-24): every stored variant depends on those being the same floats, so
+    the spectrum must equal the float draws' bit for bit (sizes: powers of two, between them, odd; seeds near 0
+    and near 2**63)."""
+    from materials.noise import white_spectrum
+
+    for seed in (0, 7, 2**63 - 5):
+        got, want = white_spectrum(size, seed), _white_spectrum_by_float_draws(size, seed)
+        assert got.dtype == want.dtype == np.complex64 and got.shape == want.shape == (size, size)
+        differ = int(np.count_nonzero(got.view(np.uint32) != want.view(np.uint32)))
+        assert differ == 0, f"size {size}, seed {seed}: {differ} of {2 * size * size} float32 words differ"

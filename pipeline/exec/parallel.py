@@ -92,13 +92,13 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
     if workers < 1:
         raise ConfigError(f"--workers must be >= 1 for a local cluster, got {workers}")
     # daemon=False: worker processes may start their own pools (drjit threads, torch loaders).
-    # malloc (worker_malloc_env): dask's nanny sets MALLOC_TRIM_THRESHOLD_ to 64 KiB in every worker, and setting it
-    # alone turns off glibc's dynamic mmap threshold, so every map-sized array (> 128 KiB) is a fresh mmap,
-    # page-faulted in and unmapped again: the data stages spent more CPU in the kernel than in their work (svgen
-    # sample with 2 workers: 47.9 s wall, 45 s system CPU, 18.8 s without; experiments/worker_env). svgen's own
-    # values raise the mmap threshold with it; a value the user exported still holds.
+    # MALLOC_TRIM_THRESHOLD_ unset (None): dask's nanny sets it to 64 KiB in every worker, and setting it at all
+    # turns off glibc's dynamic mmap threshold, so every map-sized array (> 128 KiB) is a fresh mmap, page-faulted
+    # in and unmapped again: the data stages spent more CPU in the kernel than in their work (svgen sample with 2
+    # workers: 47.9 s wall, 45 s system CPU, 18.8 s without; experiments/worker_env). A value the user exported
+    # still holds (the workers inherit this process's environment).
     with dask.config.set({"distributed.worker.daemon": False,
-                          **{f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in worker_malloc_env().items()}}):
+                          "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
         # a failing task's exception reaches the client (fut.result() re-raises it, and the CLI prints one line);
         # the workers' own "Compute Failed" report of it (5 lines at ERROR) is shown only with --verbose
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
@@ -108,23 +108,6 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
                 yield client
         finally:
             cluster.close()
-
-
-#: glibc's malloc settings in the local workers, unless this process's environment sets them (the workers inherit
-#: it). A fixed mmap threshold of 32 MiB (glibc's largest) serves every map-sized array, and a chunk task's
-#: 11-32 MB chunk arrays, from the heap, and a trim threshold of 128 MiB keeps a task's freed memory for the next
-#: one instead of handing it back to the kernel. With glibc's dynamic defaults the heap is trimmed after each burst
-#: of temporaries and the next burst page-faults it in again: the sample stage at the paper preset made 1.6x the page
-#: faults and spent about 1 s more system CPU per 364 variants (experiments/sample_speed).
-WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": str(32 << 20), "MALLOC_TRIM_THRESHOLD_": str(128 << 20)}
-
-
-def worker_malloc_env() -> dict[str, str | None]:
-    """The malloc variables the local workers get (dask's nanny would set ``MALLOC_TRIM_THRESHOLD_`` to 64 KiB
-    otherwise: experiments/worker_env). A variable exported in this process is left to the workers as it is."""
-    if any(k in os.environ for k in WORKER_MALLOC):
-        return {k: None for k in WORKER_MALLOC}
-    return dict(WORKER_MALLOC)
 
 
 def usable_cpus() -> int:
