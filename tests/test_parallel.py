@@ -140,3 +140,21 @@ def test_a_stage_leaves_this_process_dask_config_as_it_found_it(address):
                 pass
     assert dask.config.get("scheduler", None) == before
     assert int(da.ones(4, chunks=2).sum().compute()) == 4  # this process's own scheduler, as before the stage
+
+
+def test_local_workers_run_distributeds_periodic_work_less_often():
+    """svgen's local workers get QUIET_LOCAL_CLUSTER (the profiler off, the tick, system and memory monitors less
+    often): at dask's defaults an idle worker used about 3 % of a core on them (experiments/worker_quiet). Read back
+    in the worker, against dask's defaults in this process."""
+    import dask
+    import distributed  # noqa: F401  (distributed's config defaults loaded)
+
+    from pipeline.exec.parallel import QUIET_LOCAL_CLUSTER, dask_client
+
+    keys = list(QUIET_LOCAL_CLUSTER)
+    defaults = {k: dask.config.get(k) for k in keys}
+    assert defaults != QUIET_LOCAL_CLUSTER  # the settings change something
+    with dask_client(1) as client:
+        seen = list(client.run(lambda: {k: __import__("dask").config.get(k) for k in keys}).values())
+    assert seen == [QUIET_LOCAL_CLUSTER]
+    assert {k: dask.config.get(k) for k in keys} == defaults  # this process's config as it was

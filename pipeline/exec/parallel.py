@@ -98,7 +98,7 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
     # workers: 47.9 s wall, 45 s system CPU, 18.8 s without; experiments/worker_env). A value the user exported
     # still holds (the workers inherit this process's environment).
     with dask.config.set({"distributed.worker.daemon": False,
-                          "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+                          "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None, **QUIET_LOCAL_CLUSTER}):
         # a failing task's exception reaches the client (fut.result() re-raises it, and the CLI prints one line);
         # the workers' own "Compute Failed" report of it (5 lines at ERROR) is shown only with --verbose
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
@@ -108,6 +108,19 @@ def dask_client(workers: int, scheduler_address: str | None = None, connect_time
                 yield client
         finally:
             cluster.close()
+
+
+#: distributed's periodic work that serves a dashboard, or memory management of task results, run less often in svgen's
+#: local clusters, which have no dashboard and whose tasks write their chunks and return a count (their memory is
+#: bounded before the stage starts: storage.bounds). At dask's defaults an idle local worker used about 3 % of a
+#: core and the cluster's parent process about 4 % (experiments/worker_quiet). A remote scheduler's workers keep
+#: their own settings.
+QUIET_LOCAL_CLUSTER = {
+    "distributed.worker.profile.enabled": False,  # the statistical profiler: every thread's stack sampled each 10 ms
+    "distributed.admin.tick.interval": "500ms",  # the event loop's responsiveness check (20 ms)
+    "distributed.admin.system-monitor.interval": "5s",  # CPU, memory and network samples for the dashboard (500 ms)
+    "distributed.worker.memory.monitor-interval": "1s",  # worker and nanny memory checks (100 ms)
+}
 
 
 def usable_cpus() -> int:
