@@ -9,7 +9,8 @@ CPU of the process: the generator, the relief, validation, encoding, zstd and th
 
 The process gets the malloc environment a local dask worker of that checkout gets
 (``pipeline.exec.parallel.worker_malloc_env``, when the checkout has it; none otherwise, as dask's nanny leaves it
-with svgen's override), so the arm measures what its workers run.
+with svgen's override), so the arm measures what its workers run. The malloc arm this served was reverted: no
+checkout after it has ``worker_malloc_env``, and both arms then run with none.
 
     python3 experiments/sample_speed/probe_sample_task.py --against /work/wt_s0 --rounds 6
 """
