@@ -54,7 +54,8 @@ def dir_bytes(p: Path) -> int:
 
 
 def zstd_bytes(a: np.ndarray) -> int:
-    """Compressed size with the stores' codec (zstd level 3: storage.store._compressors)."""
+    """Compressed size with zstd level 3 (the level of every store array until 2026-12-04; since, of the images:
+    ``storage.renders_store.array_specs``), for the estimates of storing aligned maps per view."""
     from numcodecs import Zstd
 
     return len(Zstd(level=3).encode(np.ascontiguousarray(a)))

@@ -117,6 +117,8 @@ class ArraySpec:
     space: str = "n/a"
     dims: tuple[str, ...] = ()
     attrs: dict = field(default_factory=dict, compare=False, hash=False)
+    #: the zstd level its chunks are written with (the stores record it in their metadata, so any level reads alike)
+    zstd_level: int = 1
 
     def dimension_names(self, name: str) -> tuple[str, ...]:
         """("sample", per-sample axis names) of this array stored as ``name``."""
@@ -208,17 +210,11 @@ def _history_line(out: str | os.PathLike) -> str:
     return history_line(lambda p: history_path(p, out))
 
 
-#: the zstd level of every image and map array the stages write (level 3 before 2026-12-04; a store records its
-#: level in its metadata, so stores of either level read alike)
-ZSTD_LEVEL = 1
-
-
-def _compressors():
+def _compressors(level: int = 1):
     # zstd, in the zarr v3 spec so that xarray and any zarr reader open the stores (docs/CODECS.md: the measured
-    # knee, delta + zstd 1, uses numcodecs.delta, outside the spec); level 1, the knee of zstd's own curve: the
-    # image's encode CPU at less than half of level 3's for 23 % more bytes, the paper-scale data well inside its
-    # disk aim (experiments/store_level_one); CRC32C: detects corrupted chunks.
-    return [ZstdCodec(level=ZSTD_LEVEL), Crc32cCodec()]
+    # knee, delta + zstd 1, uses numcodecs.delta, outside the spec), at the array's level (ArraySpec.zstd_level: 1
+    # for maps and labels, 3 for the renders' images; experiments/store_level_one); CRC32C: detects corrupted chunks.
+    return [ZstdCodec(level=level), Crc32cCodec()]
 
 
 def array_layout(spec: ArraySpec, n: int, chunk: int) -> dict:
@@ -239,7 +235,7 @@ def array_layout(spec: ArraySpec, n: int, chunk: int) -> dict:
     per_sample = int(np.prod(spec.shape, dtype=np.int64)) * np.dtype(spec.dtype).itemsize
     inner = 1 if per_sample >= SMALL_SAMPLE_BYTES else chunk
     return {"shape": (n, *spec.shape), "chunks": (inner, *spec.shape), "shards": (chunk, *spec.shape),
-            "dtype": spec.dtype, "compressors": _compressors(), "fill_value": 0}
+            "dtype": spec.dtype, "compressors": _compressors(spec.zstd_level), "fill_value": 0}
 
 
 def create_arrays(g: zarr.Group, arrays: dict[str, ArraySpec], n: int, chunk: int) -> None:

@@ -64,7 +64,10 @@ def array_specs(views: int, res: int, base: int, maps: bool = True) -> dict[str,
         "category": ("stress category", "categories")}.items()}
     return {
         "image": ArraySpec((views, res, res, 3), "uint8", ENCODING, "linear sRGB primaries, stored sRGB-encoded",
-                           ("view_index", "y", "x", "rgb"), IMAGE_ATTRS),
+                           ("view_index", "y", "x", "rgb"), IMAGE_ATTRS,
+                           # level 3: level 1 would add 7-23 % to the largest array for a render-stage saving that
+                           # 7 paired runs did not resolve (experiments/store_level_one)
+                           zstd_level=3),
         "view": ArraySpec((views, len(VIEW_FIELDS)), "float64", "ViewParams fields: " + ", ".join(VIEW_FIELDS),
                           dims=("view_index", "view_field"), attrs=view_attrs()),
         **(map_specs(base, ("base_y", "base_x")) if maps else {}),

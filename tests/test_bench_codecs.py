@@ -148,7 +148,7 @@ def test_the_end_to_end_estimate_swaps_the_stores_own_write_for_the_chosen_one()
                 "write_read_cpu_s_per_view": write + read,
                 "objects_per_10k_views": 172.0 if layout == "shard=64" else 5312.0}
 
-    ours = bench_codecs.stores_codec()  # read from storage/local.py (zstd3 since #12)
+    ours = bench_codecs.stores_codec()  # read from storage/renders_store.py (the images: zstd3 since #12)
     assert ours in bench_codecs.CODECS and ours != bench_codecs.TODAY
     rows = [row(bench_codecs.TODAY, "chunked", 2, 0.009), row(ours, "shard=2", 2, 0.005),
             row(ours, "shard=64", 64, 0.004), row("delta-zstd1", "shard=64", 64, 0.001)]

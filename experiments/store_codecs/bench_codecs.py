@@ -258,12 +258,12 @@ def load(path: Path, kind: str, samples: int) -> tuple[dict[str, np.ndarray], li
 
 
 def stores_codec() -> str:
-    """The candidate the stores write with (read from ``storage.local._compressors``, its one home): render.json's
-    cpu_s_per_view is measured with it, so the end-to-end estimate swaps its write for the chosen one's."""
-    from storage.local import _compressors
+    """The candidate the renders stores write their images with (read from ``storage.renders_store.array_specs``,
+    its one home; the image is most of their bytes and of their write): render.json's cpu_s_per_view is measured
+    with it, so the end-to-end estimate swaps its write for the chosen one's."""
+    from storage.renders_store import array_specs
 
-    level = next(c.level for c in _compressors() if isinstance(c, ZstdCodec))
-    return f"zstd{level}"
+    return f"zstd{array_specs(10, 8, 8)['image'].zstd_level}"
 
 
 def score(row: dict) -> float:
